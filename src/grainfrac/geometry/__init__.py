@@ -1,0 +1,1 @@
+"""Specimen geometry: shapes, grain tessellation, meshing and the contact/flow network."""

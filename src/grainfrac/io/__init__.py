@@ -1,0 +1,1 @@
+"""Input and output: config loading, result files, VTK export."""

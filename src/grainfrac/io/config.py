@@ -1,0 +1,80 @@
+"""Config plumbing shared by every user-facing schema.
+
+Schemas are pydantic models in the field's units (MPa, GPa, mm). They are
+strict (unknown keys are errors) and frozen. Validation failures become a
+one-line :class:`~grainfrac.errors.ConfigError` that names the field and the
+allowed range, raised before any compute.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+from typing import Any, TypeVar
+
+from pydantic import BaseModel, ConfigDict, ValidationError
+
+from grainfrac.errors import ConfigError
+
+M = TypeVar("M", bound=BaseModel)
+
+
+class StrictModel(BaseModel):
+    """Base of all config schemas: unknown keys rejected, instances immutable."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+def _field_path(loc: tuple[Any, ...]) -> str:
+    return ".".join(str(part) for part in loc) or "<root>"
+
+
+def _describe(error: dict[str, Any]) -> str:
+    ctx = error.get("ctx") or {}
+    kind = error.get("type", "")
+    bounds = {"greater_than": "> {gt}", "greater_than_equal": ">= {ge}",
+              "less_than": "< {lt}", "less_than_equal": "<= {le}"}
+    if kind in bounds:
+        text = "must be " + bounds[kind].format(**ctx)
+    else:
+        text = str(error.get("msg", "invalid value"))
+        if text.startswith("Value error, "):
+            text = text[len("Value error, "):]
+    if "input" in error and kind not in ("missing", "extra_forbidden"):
+        value = error["input"]
+        if not isinstance(value, dict | list):
+            text += f" (got {value!r})"
+    return text
+
+
+def config_error_from(exc: ValidationError) -> ConfigError:
+    """Turn a pydantic ValidationError into a one-line ConfigError (first problem)."""
+    first = exc.errors()[0]
+    return ConfigError(_field_path(first["loc"]), _describe(first))
+
+
+def validate(model: type[M], data: Any, *, prefix: str = "") -> M:
+    """Validate ``data`` against ``model``; raise :class:`ConfigError` on failure."""
+    try:
+        return model.model_validate(data)
+    except ValidationError as exc:
+        err = config_error_from(exc)
+        if prefix:
+            raise ConfigError(f"{prefix}.{err.field}", err.message) from None
+        raise err from None
+
+
+def read_toml(path: str | Path) -> dict[str, Any]:
+    """Read a TOML file, turning syntax errors into :class:`ConfigError`."""
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(str(path), "file not found")
+    try:
+        return tomllib.loads(path.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(str(path), f"invalid TOML: {exc}") from None
+
+
+def load_toml(model: type[M], path: str | Path) -> M:
+    """Load and validate a TOML file into ``model``."""
+    return validate(model, read_toml(path))
