@@ -384,7 +384,7 @@ def _boundary_sets(grains, owners, seg_points, cp_xy, node_of, node_xy, fluid_of
         faces[side].extend(zip(nodes[:-1], nodes[1:], strict=True))
     # A vertex where a grain boundary meets the specimen boundary also belongs to
     # the neighbour grain, whose own boundary segment there may be on another side.
-    for (g, cp), node in node_of.items():
+    for (_g, cp), node in node_of.items():
         if cp < len(grains.vertices):
             for n in names:
                 if on_side[n][cp]:

@@ -1,0 +1,1 @@
+"""Figures (matplotlib, Agg). Drawing only: no physics, no file formats beyond images."""

@@ -1,0 +1,90 @@
+"""Picture of a grain assembly: grains coloured by mineral, fissures highlighted."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.collections import LineCollection, PolyCollection  # noqa: E402
+from matplotlib.patches import Patch  # noqa: E402
+
+from grainfrac.assembly import GrainAssembly  # noqa: E402
+from grainfrac.io.files import write_atomic  # noqa: E402
+
+# Granite-like colours: dark mica, pink feldspar, pale quartz.
+MINERAL_COLOURS = {"mica": "#3b3024", "feldspar": "#e8a98c", "quartz": "#dcdcd4"}
+FISSURE_COLOUR = "#d7191c"
+
+
+def draw_assembly(ax, assembly: GrainAssembly, *, show_mesh: bool = False,
+                  title: str | None = None) -> None:
+    """Draw grains by mineral, grain boundaries and fissures on ``ax`` (axes in mm)."""
+    mesh = assembly.mesh
+    grains = mesh.grains
+    names = assembly.mineral_table.names
+    colours = [MINERAL_COLOURS.get(n, "#999999") for n in names]
+    polys = [grains.vertices[r] * 1e3 for r in grains.rings]
+    face = [colours[m] for m in assembly.grain_mineral]
+    ax.add_collection(PolyCollection(polys, facecolors=face, edgecolors="#555555",
+                                     linewidths=0.4))
+    if show_mesh:
+        tri = mesh.node_xy[mesh.element_nodes] * 1e3
+        ax.add_collection(PolyCollection(tri, facecolors="none", edgecolors="#00000022",
+                                         linewidths=0.2))
+    fiss = assembly.interface_fissure[mesh.pipe_interface]
+    if fiss.any():
+        seg = mesh.fluid_node_xy[mesh.pipe_nodes[fiss]] * 1e3
+        ax.add_collection(LineCollection(seg, colors=FISSURE_COLOUR, linewidths=1.6))
+    lo = grains.vertices.min(axis=0) * 1e3
+    hi = grains.vertices.max(axis=0) * 1e3
+    pad = 0.03 * float(np.max(hi - lo))
+    ax.set_xlim(lo[0] - pad, hi[0] + pad)
+    ax.set_ylim(lo[1] - pad, hi[1] + pad)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (mm)")
+    ax.set_ylabel("y (mm)")
+    if title:
+        ax.set_title(title, fontsize=10)
+
+
+def legend_handles(assembly: GrainAssembly) -> list[Patch]:
+    fractions = assembly.volume_fractions()
+    handles = [
+        Patch(facecolor=MINERAL_COLOURS.get(n, "#999999"), edgecolor="#555555",
+              label=f"{n} {100 * f:.1f} %")
+        for n, f in zip(assembly.mineral_table.names, fractions, strict=True)
+    ]
+    if assembly.interface_fissure.any():
+        handles.append(Patch(facecolor=FISSURE_COLOUR,
+                             label=f"fissures {100 * assembly.interface_fissure.mean():.1f} %"))
+    return handles
+
+
+def plot_assembly(assembly: GrainAssembly, path: str | Path, *, show_mesh: bool = True,
+                  title: str | None = None) -> Path:
+    """Save a PNG of one assembly."""
+    fig, ax = plt.subplots(figsize=(6.4, 6.0), dpi=150)
+    draw_assembly(ax, assembly, show_mesh=show_mesh, title=title)
+    ax.legend(handles=legend_handles(assembly), loc="upper left", bbox_to_anchor=(1.01, 1.0),
+              fontsize=8, frameon=False)
+    fig.tight_layout()
+    out = write_atomic(path, lambda p: fig.savefig(p, format="png", bbox_inches="tight"))
+    plt.close(fig)
+    return out
+
+
+def plot_gallery(assemblies: list[tuple[str, GrainAssembly]], path: str | Path) -> Path:
+    """Save several assemblies side by side (e.g. the four specimen shapes)."""
+    fig, axes = plt.subplots(1, len(assemblies), figsize=(4.2 * len(assemblies), 4.4), dpi=130)
+    for ax, (title, assembly) in zip(np.atleast_1d(axes), assemblies, strict=True):
+        draw_assembly(ax, assembly, show_mesh=False, title=title)
+    first = assemblies[0][1]
+    fig.legend(handles=legend_handles(first)[:3], loc="lower center", ncol=4, frameon=False)
+    fig.tight_layout(rect=(0, 0.06, 1, 1))
+    out = write_atomic(path, lambda p: fig.savefig(p, format="png", bbox_inches="tight"))
+    plt.close(fig)
+    return out
