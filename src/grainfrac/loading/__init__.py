@@ -1,0 +1,1 @@
+"""Loads and boundary conditions: in-situ stress, platens, borehole pressure, fixed nodes."""

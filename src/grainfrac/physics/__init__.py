@@ -1,0 +1,1 @@
+"""Mechanics of deformable grains and breakable contacts: model arrays, kernels, driver."""

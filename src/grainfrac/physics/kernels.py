@@ -1,0 +1,282 @@
+"""Compiled kernels of the explicit grain-contact mechanics (numba, CPU).
+
+Kernels take only flat arrays and numbers, never config objects. Signs:
+tension positive in grains; in contacts the normal stress ``sigma_n`` is
+compression positive (as in the Coulomb criterion), the normal displacement
+``u_n`` is opening positive. Units SI.
+
+References: small-strain constant-strain triangles (plane strain);
+3DEC Coulomb slip joint with tensile cut-off (Itasca 2022, "Joint constitutive
+models"); local non-viscous damping and central differences (Cundall 1987).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+# Contact status codes (also the ``mode`` of a crack).
+INTACT = 0
+TENSILE = 1
+SHEAR = 2
+
+
+@njit(cache=True, fastmath=False)
+def element_forces(u, element_nodes, dndx, dndy, area, lam, mu, thickness, force, stress):
+    """Add plane-strain internal forces of linear triangles to ``force``; store stresses.
+
+    eps = B u;  sigma = lam tr(eps) I + 2 mu eps;  f_a = -A t B_a^T sigma.
+    ``stress[e] = (sxx, syy, sxy, szz)``.
+    """
+    for e in range(element_nodes.shape[0]):
+        exx = 0.0
+        eyy = 0.0
+        gxy = 0.0
+        for k in range(3):
+            n = element_nodes[e, k]
+            exx += dndx[e, k] * u[n, 0]
+            eyy += dndy[e, k] * u[n, 1]
+            gxy += dndy[e, k] * u[n, 0] + dndx[e, k] * u[n, 1]
+        tr = lam[e] * (exx + eyy)
+        sxx = tr + 2.0 * mu[e] * exx
+        syy = tr + 2.0 * mu[e] * eyy
+        sxy = mu[e] * gxy
+        stress[e, 0] = sxx
+        stress[e, 1] = syy
+        stress[e, 2] = sxy
+        stress[e, 3] = tr
+        at = area[e] * thickness
+        for k in range(3):
+            n = element_nodes[e, k]
+            force[n, 0] -= at * (dndx[e, k] * sxx + dndy[e, k] * sxy)
+            force[n, 1] -= at * (dndx[e, k] * sxy + dndy[e, k] * syy)
+
+
+@njit(cache=True)
+def contact_law(u_n, du_s, tau_old, kn, ks, tan_phi, cohesion, tensile_strength, bonded):
+    """Coulomb slip with tensile cut-off for one sub-contact (stresses, Pa).
+
+    Parameters
+    ----------
+    u_n : opening displacement (m), positive when the faces separate.
+    du_s : shear displacement increment of this step (m).
+    tau_old : shear stress of the previous step (Pa).
+    kn, ks : normal and shear stiffness (Pa/m).
+    tan_phi, cohesion, tensile_strength : strength (residual friction kept after failure).
+    bonded : whether the bond is intact.
+
+    Returns
+    -------
+    sigma_n, tau, new_status, slip_work_density, released_energy_density
+        ``sigma_n`` compression positive; ``new_status`` is INTACT if nothing
+        broke this call, else TENSILE or SHEAR; energies per unit area (J/m2).
+    """
+    sigma_n = -kn * u_n
+    tau = tau_old + ks * du_s
+    status = INTACT
+    released = 0.0
+    if bonded:
+        if -sigma_n > tensile_strength:
+            status = TENSILE
+        elif abs(tau) > cohesion + sigma_n * tan_phi:
+            status = SHEAR
+        if status == INTACT:
+            return sigma_n, tau, INTACT, 0.0, 0.0
+        before = 0.5 * (sigma_n * sigma_n / kn + tau * tau / ks)
+    else:
+        before = 0.0
+    # Unbonded (or just broken): no tension, friction only.
+    slip_work = 0.0
+    if sigma_n <= 0.0:
+        sigma_n = 0.0
+        tau = 0.0
+    else:
+        limit = sigma_n * tan_phi
+        if abs(tau) > limit:
+            excess = abs(tau) - limit
+            tau = limit if tau > 0.0 else -limit
+            if not bonded:
+                slip_work = limit * excess / ks
+    if bonded:
+        after = 0.5 * (sigma_n * sigma_n / kn + tau * tau / ks)
+        released = before - after
+    return sigma_n, tau, status, slip_work, released
+
+
+@njit(cache=True)
+def contact_forces(
+    u, v, dt, contact_nodes, normal, tangent, contact_area,
+    kn, ks, tan_phi, cohesion, tensile_strength,
+    bonded, status, sigma_n, tau, pressure_on_contact,
+    released, force, failed_now,
+):
+    """Add contact spring forces and fluid pressure forces to ``force``.
+
+    Relative displacement of the second node with respect to the first:
+    opening ``u_n = (u_b - u_a).n``; shear increment ``(v_b - v_a).t dt``.
+    A fluid pressure ``p`` pushes the two faces apart (force ``p A`` on each).
+    Returns the frictional work of this step (J).
+    """
+    friction_work = 0.0
+    n_failed = 0
+    for c in range(contact_nodes.shape[0]):
+        a = contact_nodes[c, 0]
+        b = contact_nodes[c, 1]
+        nx = normal[c, 0]
+        ny = normal[c, 1]
+        tx = tangent[c, 0]
+        ty = tangent[c, 1]
+        u_n = (u[b, 0] - u[a, 0]) * nx + (u[b, 1] - u[a, 1]) * ny
+        du_s = ((v[b, 0] - v[a, 0]) * tx + (v[b, 1] - v[a, 1]) * ty) * dt
+        sn, ts, new_status, w_slip, e_rel = contact_law(
+            u_n, du_s, tau[c], kn[c], ks[c], tan_phi[c], cohesion[c],
+            tensile_strength[c], bonded[c],
+        )
+        if new_status != INTACT:
+            bonded[c] = False
+            status[c] = new_status
+            released[c] = e_rel * contact_area[c]
+            failed_now[n_failed] = c
+            n_failed += 1
+        sigma_n[c] = sn
+        tau[c] = ts
+        friction_work += w_slip * contact_area[c]
+        # Traction on face b (first grain pushes b along +n when compressed).
+        fn = (sn + pressure_on_contact[c]) * contact_area[c]
+        fs = ts * contact_area[c]
+        fx = fn * nx - fs * tx
+        fy = fn * ny - fs * ty
+        force[b, 0] += fx
+        force[b, 1] += fy
+        force[a, 0] -= fx
+        force[a, 1] -= fy
+    return friction_work, n_failed
+
+
+@njit(cache=True)
+def update_nodes(u, v, force, external, mass, dt, alpha, fixed, prescribed_velocity):
+    """Local non-viscous damping and a central-difference step.
+
+    F_d = -alpha |F| sign(v);  v += dt (F + F_d) / m;  u += dt v.
+    ``fixed[n, d]`` holds a component at ``prescribed_velocity[n, d]``.
+    Returns (boundary work of external forces and supports, damping work,
+    sum |unbalanced force| over free components) of this step.
+    """
+    w_ext = 0.0
+    w_damp = 0.0
+    unbalanced = 0.0
+    for n in range(u.shape[0]):
+        for d in range(2):
+            f = force[n, d] + external[n, d]
+            if fixed[n, d]:
+                v[n, d] = prescribed_velocity[n, d]
+                # The support's reaction balances f and works on the prescribed motion.
+                w_ext -= f * v[n, d] * dt
+            else:
+                unbalanced += abs(f)
+                vn = v[n, d]
+                # branch-free sign: (vn > 0) - (vn < 0)
+                fd = -alpha * abs(f) * ((vn > 0.0) - (vn < 0.0))
+                v[n, d] = vn + dt * (f + fd) / mass[n]
+                w_damp -= fd * v[n, d] * dt
+            w_ext += external[n, d] * v[n, d] * dt
+            u[n, d] += dt * v[n, d]
+    return w_ext, w_damp, unbalanced
+
+
+@njit(cache=True)
+def platen_forces(u, node_xy, nodes, axis, side, position, stiffness, force, node_force):
+    """Frictionless rigid platen: penalty force on nodes that pass its plane.
+
+    ``side = +1`` for a platen above the specimen (pushes down), ``-1`` below.
+    Stores each node's force in ``node_force`` and returns the total force the
+    platen exerts on the specimen along ``axis``.
+    """
+    total = 0.0
+    for i in range(nodes.shape[0]):
+        n = nodes[i]
+        x = node_xy[n, axis] + u[n, axis]
+        pen = (x - position) * side
+        f = -side * stiffness[i] * pen if pen > 0.0 else 0.0
+        force[n, axis] += f
+        node_force[i] = f
+        total += f
+    return total
+
+
+@njit(cache=True)
+def element_strain_energy(u, element_nodes, dndx, dndy, area, lam, mu, thickness):
+    """Elastic strain energy stored in the grains (J)."""
+    total = 0.0
+    for e in range(element_nodes.shape[0]):
+        exx = 0.0
+        eyy = 0.0
+        gxy = 0.0
+        for k in range(3):
+            n = element_nodes[e, k]
+            exx += dndx[e, k] * u[n, 0]
+            eyy += dndy[e, k] * u[n, 1]
+            gxy += dndy[e, k] * u[n, 0] + dndx[e, k] * u[n, 1]
+        tr = lam[e] * (exx + eyy)
+        w = 0.5 * ((tr + 2.0 * mu[e] * exx) * exx + (tr + 2.0 * mu[e] * eyy) * eyy
+                   + mu[e] * gxy * gxy)
+        total += w * area[e] * thickness
+    return total
+
+
+def contact_strain_energy(sigma_n, tau, kn, ks, area) -> float:
+    """Elastic energy stored in the contact springs (J)."""
+    return float(np.sum(0.5 * area * (sigma_n**2 / kn + tau**2 / ks)))
+
+
+@njit(cache=True)
+def run_steps(
+    n_steps, dt, alpha, u, v, force, stress, external, mass, fixed, prescribed_velocity,
+    element_nodes, dndx, dndy, area, lam, mu, thickness,
+    contact_nodes, normal, tangent, contact_area, kn, ks, tan_phi, cohesion,
+    tensile_strength, bonded, status, sigma_n, tau, pressure_on_contact, released,
+    platen_node_xy, platen_nodes, platen_offsets, platen_axis, platen_side,
+    platen_position, platen_velocity, platen_stiffness, platen_reaction, platen_node_force,
+    failed_contact, failed_step, energies,
+):
+    """Advance ``n_steps`` explicit steps without returning to Python.
+
+    ``energies`` accumulates [external work, damping work, friction work,
+    released bond energy, platen work]. Broken contacts are appended to
+    ``failed_contact`` / ``failed_step`` (step index within this call); the
+    number appended is returned (the buffers must hold every contact).
+    """
+    n_failed_total = 0
+    failed_now = np.empty(contact_nodes.shape[0], dtype=np.int64)
+    for step in range(n_steps):
+        force[:, :] = 0.0
+        element_forces(u, element_nodes, dndx, dndy, area, lam, mu, thickness, force, stress)
+        w_fric, n_failed = contact_forces(
+            u, v, dt, contact_nodes, normal, tangent, contact_area, kn, ks, tan_phi, cohesion,
+            tensile_strength, bonded, status, sigma_n, tau, pressure_on_contact, released,
+            force, failed_now,
+        )
+        for i in range(n_failed):
+            c = failed_now[i]
+            failed_contact[n_failed_total] = c
+            failed_step[n_failed_total] = step
+            n_failed_total += 1
+            energies[3] += released[c]
+        energies[2] += w_fric
+        for p in range(platen_axis.shape[0]):
+            lo = platen_offsets[p]
+            hi = platen_offsets[p + 1]
+            platen_position[p] += platen_velocity[p] * dt
+            platen_reaction[p] = platen_forces(
+                u, platen_node_xy, platen_nodes[lo:hi], platen_axis[p], platen_side[p],
+                platen_position[p], platen_stiffness[lo:hi], force, platen_node_force[lo:hi],
+            )
+        w_ext, w_damp, _ = update_nodes(u, v, force, external, mass, dt, alpha, fixed,
+                                        prescribed_velocity)
+        for p in range(platen_axis.shape[0]):
+            ax = platen_axis[p]
+            for i in range(platen_offsets[p], platen_offsets[p + 1]):
+                energies[4] += platen_node_force[i] * v[platen_nodes[i], ax] * dt
+        energies[0] += w_ext
+        energies[1] += w_damp
+    return n_failed_total

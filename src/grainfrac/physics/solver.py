@@ -1,0 +1,172 @@
+"""Explicit quasi-static driver for the grain-contact mechanics.
+
+One object owns the state arrays and advances them with the compiled
+``run_steps`` loop; it records cracks and energies. It neither writes files
+nor plots (that is io/ and viz/).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from grainfrac.errors import GrainfracError
+from grainfrac.loading.boundary import Loads, Platen
+from grainfrac.physics import kernels
+from grainfrac.physics.model import MechanicalModel
+
+ENERGY_KEYS = ("boundary_work", "damping_work", "friction_work", "bond_energy_released",
+               "platen_work")
+
+
+class NumericalBlowUp(GrainfracError):
+    """The explicit scheme diverged (NaN or runaway velocities)."""
+
+
+@dataclass
+class CrackRecord:
+    """Cracks in the order they formed: contact ids, times (s) and modes."""
+
+    contact: list[int]
+    time: list[float]
+    mode: list[int]
+    energy: list[float]
+
+
+class MechanicsSolver:
+    """Advance a :class:`MechanicalModel` under :class:`Loads`.
+
+    Parameters
+    ----------
+    model
+        Model arrays.
+    loads
+        External forces, supports and platens (may be changed between calls).
+    damping
+        Local non-viscous damping coefficient (Itasca default 0.8).
+    """
+
+    def __init__(self, model: MechanicalModel, loads: Loads | None = None, damping: float = 0.8):
+        self.model = model
+        self.loads = loads if loads is not None else Loads.free(model.n_nodes)
+        self.damping = damping
+        n, c = model.n_nodes, model.n_contacts
+        self.u = np.zeros((n, 2))
+        self.v = np.zeros((n, 2))
+        self.force = np.zeros((n, 2))
+        self.stress = np.zeros((len(model.element_nodes), 4))
+        self.bonded = model.initially_bonded.copy()
+        self.status = np.zeros(c, dtype=np.int64)
+        self.sigma_n = np.zeros(c)
+        self.tau = np.zeros(c)
+        self.contact_pressure = np.zeros(c)
+        self.released = np.zeros(c)
+        self.energies = np.zeros(len(ENERGY_KEYS))
+        self.time = 0.0
+        self.step_count = 0
+        self.cracks = CrackRecord([], [], [], [])
+        self._failed_contact = np.zeros(c, dtype=np.int64)
+        self._failed_step = np.zeros(c, dtype=np.int64)
+
+    # -- stepping -----------------------------------------------------------------
+    def _platen_arrays(self):
+        platens: list[Platen] = self.loads.platens
+        nodes = [p.nodes for p in platens]
+        offsets = np.cumsum([0] + [len(x) for x in nodes]).astype(np.int64)
+        cat = np.concatenate(nodes).astype(np.int64) if nodes else np.zeros(0, np.int64)
+        stiff = np.concatenate([p.stiffness for p in platens]) if platens else np.zeros(0)
+        return (
+            cat, offsets,
+            np.array([p.axis for p in platens], dtype=np.int64),
+            np.array([p.side for p in platens], dtype=np.float64),
+            np.array([p.position for p in platens], dtype=np.float64),
+            np.array([p.velocity for p in platens], dtype=np.float64),
+            stiff, np.zeros(len(platens)), np.zeros(len(cat)),
+        )
+
+    def cycle(self, n_steps: int) -> None:
+        """Advance ``n_steps`` steps; record new cracks; check for blow-up."""
+        m, ld = self.model, self.loads
+        (pn, po, pa, ps, ppos, pvel, pstiff, preac, pnf) = self._platen_arrays()
+        n_new = kernels.run_steps(
+            n_steps, m.dt, self.damping, self.u, self.v, self.force, self.stress, ld.external,
+            m.mass, ld.fixed, ld.prescribed_velocity,
+            m.element_nodes, m.dndx, m.dndy, m.element_area, m.lam, m.mu, m.thickness,
+            m.contact_nodes, m.contact_normal, m.contact_tangent, m.contact_area,
+            m.normal_stiffness, m.shear_stiffness, m.tan_friction, m.cohesion,
+            m.tensile_strength, self.bonded, self.status, self.sigma_n, self.tau,
+            self.contact_pressure, self.released,
+            m.node_xy, pn, po, pa, ps, ppos, pvel, pstiff, preac, pnf,
+            self._failed_contact, self._failed_step, self.energies,
+        )
+        for platen, pos, reac in zip(ld.platens, ppos, preac, strict=True):
+            platen.position = float(pos)
+            platen.reaction = float(-reac)
+        for i in range(n_new):
+            c = int(self._failed_contact[i])
+            self.cracks.contact.append(c)
+            self.cracks.time.append(self.time + (int(self._failed_step[i]) + 1) * m.dt)
+            self.cracks.mode.append(int(self.status[c]))
+            self.cracks.energy.append(float(self.released[c]))
+        self.time += n_steps * m.dt
+        self.step_count += n_steps
+        if not np.all(np.isfinite(self.v)):
+            raise NumericalBlowUp(
+                f"non-finite velocities at step {self.step_count} (t = {self.time:.6g} s)"
+            )
+
+    # -- diagnostics --------------------------------------------------------------
+    def unbalanced_force_ratio(self) -> float:
+        """Mean unbalanced force over free components / mean applied force magnitude.
+
+        Applied force: the larger of the external forces and the internal forces
+        (Itasca's ratio uses gridpoint force sums); 0 when nothing is loaded.
+        """
+        free = ~self.loads.fixed
+        total = self.force + self.loads.external
+        unbalanced = np.abs(total[free]).mean() if free.any() else 0.0
+        scale = max(np.abs(self.loads.external).sum(), np.abs(self.force).sum() / 2.0)
+        scale /= max(np.count_nonzero(np.any(self.loads.external != 0, axis=1)
+                                      | np.any(self.force != 0, axis=1)), 1)
+        return float(unbalanced / scale) if scale > 0 else 0.0
+
+    def equilibrate(self, ratio: float = 1e-5, max_steps: int = 200_000,
+                    check_every: int = 200) -> float:
+        """Step until the unbalanced-force ratio falls below ``ratio``; return it."""
+        steps = 0
+        current = np.inf
+        while steps < max_steps:
+            self.cycle(check_every)
+            steps += check_every
+            current = self.unbalanced_force_ratio()
+            if current < ratio:
+                break
+        return current
+
+    def kinetic_energy(self) -> float:
+        return float(0.5 * np.sum(self.model.mass[:, None] * self.v**2))
+
+    def grain_strain_energy(self) -> float:
+        m = self.model
+        return float(kernels.element_strain_energy(
+            self.u, m.element_nodes, m.dndx, m.dndy, m.element_area, m.lam, m.mu, m.thickness))
+
+    def contact_strain_energy(self) -> float:
+        m = self.model
+        return kernels.contact_strain_energy(self.sigma_n, self.tau, m.normal_stiffness,
+                                             m.shear_stiffness, m.contact_area)
+
+    def energy_balance(self) -> dict[str, float]:
+        """Energies (J): work in, stored, dissipated, and the residual of the balance."""
+        out = dict(zip(ENERGY_KEYS, (float(x) for x in self.energies), strict=True))
+        out["grain_strain_energy"] = self.grain_strain_energy()
+        out["contact_strain_energy"] = self.contact_strain_energy()
+        out["kinetic_energy"] = self.kinetic_energy()
+        work_in = out["boundary_work"] + out["platen_work"]
+        stored = out["grain_strain_energy"] + out["contact_strain_energy"] + out["kinetic_energy"]
+        dissipated = (out["damping_work"] + out["friction_work"]
+                      + out["bond_energy_released"])
+        out["work_in"] = work_in
+        out["residual"] = work_in - stored - dissipated
+        return out
