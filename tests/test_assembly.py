@@ -268,23 +268,14 @@ def test_no_compute_patch_is_effective(no_compute):
         _pipeline({})
 
 
-_INLINE_BUG = pytest.mark.xfail(
-    strict=True,
-    raises=AssertionError,
-    reason="src bug: SpecimenConfig.rock is `str | RockRecipe`; config_error_from reports the "
-    "first union branch ('rock.str: Input should be a valid string'), not the recipe field",
-)
-
-
 @pytest.mark.parametrize(
     ("rock", "field_part", "message_part"),
     [
         pytest.param(_rock(youngs_modulus_GPa=-1), "youngs_modulus_GPa", "must be > 0",
-                     id="negative-modulus", marks=_INLINE_BUG),
-        pytest.param(_rock(volume_percent=20.0), "minerals", "sum to 100", id="fractions-sum",
-                     marks=_INLINE_BUG),
+                     id="negative-modulus"),
+        pytest.param(_rock(volume_percent=20.0), "minerals", "sum to 100", id="fractions-sum"),
         pytest.param(_rock(name="olivine"), "minerals.0.name", "mica, feldspar, quartz",
-                     id="unknown-mineral", marks=_INLINE_BUG),
+                     id="unknown-mineral"),
     ],
 )
 def test_inline_recipe_errors(no_compute, rock, field_part, message_part):
@@ -324,7 +315,7 @@ def test_recipe_file_errors(no_compute, tmp_path, rock, field_part, message_part
         ({"grains": {"min_edge": 3}}, "grains.min_edge", "Extra inputs are not permitted"),
         ({"rock": "no-such-rock"}, "", "presets: strathbogie-granite"),
         ({"fissures": {"fraction": 0.1, "clear_radius_mm": 60}}, "",
-         "clear_radius_mm must be < half the smallest side (50 mm), got 60"),
+         "must be < half the smallest side (50 mm)"),
     ],
     ids=["min>max-edge", "zone<0", "borehole-too-big", "unknown-shape", "fissure-fraction",
          "negative-seed", "unknown-key", "unknown-nested-key", "unknown-preset",
@@ -336,32 +327,19 @@ def test_config_errors_before_compute(no_compute, data, field, message_part):
     assert message_part in err.message
 
 
-def _src_bug(reason: str) -> pytest.MarkDecorator:
-    return pytest.mark.xfail(strict=True, raises=AssertionError, reason="src bug: " + reason)
-
 
 @pytest.mark.parametrize(
     ("data", "field"),
     [
-        pytest.param({"rock": "no-such-rock"}, "rock", id="unknown-preset",
-                     marks=_src_bug("materials._load names the field 'recipe'; the config key "
-                                    "is 'rock'")),
+        pytest.param({"rock": "no-such-rock"}, "rock", id="unknown-preset"),
         pytest.param({"fissures": {"fraction": 0.1, "clear_radius_mm": 60}},
-                     "fissures.clear_radius_mm", id="clear-radius-too-big",
-                     marks=_src_bug("SpecimenConfig._fits is a model validator, so the "
-                                    "error's field is '<root>'")),
+                     "fissures.clear_radius_mm", id="clear-radius-too-big"),
     ],
 )
 def test_config_error_names_the_config_key(no_compute, data, field):
     assert _config_error(data).field == field
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=AssertionError,
-    reason="src bug: build_assembly checks 'clear radius needs a borehole' after tessellate and "
-    "mesh_grains, not at validation",
-)
 def test_clear_radius_without_borehole_fails_before_compute(no_compute):
     _config_error({"specimen": {"shape": "disk"},
                    "fissures": {"fraction": 0.05, "clear_radius_mm": 5}})

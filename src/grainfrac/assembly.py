@@ -39,12 +39,12 @@ class GrainSpec(StrictModel):
     def _ordered(self) -> GrainSpec:
         if self.min_edge_mm >= self.max_edge_mm:
             raise ValueError(
-                f"min_edge_mm must be < max_edge_mm ({self.max_edge_mm:g}), "
+                f"min_edge_mm: must be < max_edge_mm ({self.max_edge_mm:g}), "
                 f"got {self.min_edge_mm:g}"
             )
         if self.zone_size_mm > self.max_edge_mm:
             raise ValueError(
-                f"zone_size_mm must be <= max_edge_mm ({self.max_edge_mm:g}), "
+                f"zone_size_mm: must be <= max_edge_mm ({self.max_edge_mm:g}), "
                 f"got {self.zone_size_mm:g}"
             )
         return self
@@ -69,12 +69,18 @@ class SpecimenConfig(StrictModel):
     @model_validator(mode="after")
     def _fits(self) -> SpecimenConfig:
         spec = self.specimen
-        if isinstance(spec, SlabSpec) and self.fissures.clear_radius_mm > 0:
-            limit = min(spec.width_mm, spec.height_mm) / 2
-            if self.fissures.clear_radius_mm >= limit:
+        clear = self.fissures.clear_radius_mm
+        if clear > 0:
+            if not (isinstance(spec, SlabSpec) and spec.borehole_diameter_mm > 0):
                 raise ValueError(
-                    f"fissures.clear_radius_mm must be < half the smallest side ({limit:g} mm), "
-                    f"got {self.fissures.clear_radius_mm:g}"
+                    "fissures.clear_radius_mm: must be 0 for a specimen without a borehole "
+                    f"(got {clear:g})"
+                )
+            limit = min(spec.width_mm, spec.height_mm) / 2
+            if clear >= limit:
+                raise ValueError(
+                    f"fissures.clear_radius_mm: must be < half the smallest side ({limit:g} mm)"
+                    f" (got {clear:g})"
                 )
         return self
 
@@ -86,9 +92,14 @@ class SpecimenConfig(StrictModel):
         if base_dir is not None and not candidate.is_absolute():
             if (base_dir / candidate).is_file():
                 candidate = base_dir / candidate
-        if candidate.suffix == ".toml" or candidate.is_file():
-            return materials.load_recipe(candidate)
-        return materials.load_recipe(self.rock)
+        try:
+            if candidate.suffix == ".toml" or candidate.is_file():
+                return materials.load_recipe(candidate)
+            return materials.load_recipe(self.rock)
+        except ConfigError as exc:
+            if exc.field == "recipe":
+                raise ConfigError("rock", exc.message) from None
+            raise
 
 
 def load_specimen_config(path: str | Path) -> tuple[SpecimenConfig, materials.RockRecipe]:
@@ -200,7 +211,7 @@ def build_assembly(config: SpecimenConfig, recipe: materials.RockRecipe) -> Grai
         config.grains.min_edge_mm * MM,
         config.grains.max_edge_mm * MM,
         rngs["tessellation"],
-        boundary_min_segment=0.25 * zone,
+        boundary_min_segment=0.4 * zone,
         lloyd_iterations=config.grains.lloyd_iterations,
     )
     mesh = mesh_grains(grains, zone)
@@ -229,8 +240,6 @@ def build_assembly(config: SpecimenConfig, recipe: materials.RockRecipe) -> Grai
         clear = config.fissures.clear_radius_mm * MM
         eligible = np.ones(mesh.n_interfaces, dtype=bool)
         if clear > 0:
-            if shape.borehole_radius <= 0:
-                raise ConfigError("fissures.clear_radius_mm", "needs a specimen with a borehole")
             eligible = _interface_distance(mesh, shape.borehole_center) > clear
         fissure = materials.select_fissures(
             mesh.n_interfaces, config.fissures.fraction, eligible, rngs["fissures"]

@@ -150,6 +150,7 @@ class WeibullSpec(StrictModel):
     table_value: Literal["scale", "mean"] = Field(
         default="scale", description="whether table values are the Weibull scale or the mean"
     )
+    enabled: bool = Field(default=True, description="false: no scatter (homogeneous checks)")
 
 
 def _pair_error(key: str, message: str, value: Any) -> ValidationError:
@@ -545,6 +546,8 @@ def weibull_multipliers(
         Positive multipliers of shape ``size``.
     """
     x = spec.scale * rng.weibull(spec.shape, size)
+    if not spec.enabled:
+        return np.ones(size)
     if spec.table_value == "mean":
         x /= spec.scale * math.gamma(1.0 + 1.0 / spec.shape)
     return x

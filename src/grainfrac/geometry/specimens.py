@@ -36,7 +36,7 @@ class SlabSpec(StrictModel):
         limit = min(self.width_mm, self.height_mm) / 2
         if self.borehole_diameter_mm >= limit:
             raise ValueError(
-                f"borehole_diameter_mm must be < half the smallest side ({limit:g} mm), "
+                f"borehole_diameter_mm: must be < half the smallest side ({limit:g} mm), "
                 f"got {self.borehole_diameter_mm:g}"
             )
         return self
@@ -65,17 +65,17 @@ class SemiDiskSpec(StrictModel):
         radius = self.diameter_mm / 2
         if self.notch_length_mm >= 0.8 * radius:
             raise ValueError(
-                f"notch_length_mm must be < 0.8 x radius ({0.8 * radius:g} mm), "
+                f"notch_length_mm: must be < 0.8 x radius ({0.8 * radius:g} mm), "
                 f"got {self.notch_length_mm:g}"
             )
         if self.notch_width_mm >= 0.25 * radius:
             raise ValueError(
-                f"notch_width_mm must be < radius / 4 ({0.25 * radius:g} mm), "
+                f"notch_width_mm: must be < radius / 4 ({0.25 * radius:g} mm), "
                 f"got {self.notch_width_mm:g}"
             )
         if self.support_span_mm >= self.diameter_mm:
             raise ValueError(
-                f"support_span_mm must be < diameter_mm ({self.diameter_mm:g}), "
+                f"support_span_mm: must be < diameter_mm ({self.diameter_mm:g}), "
                 f"got {self.support_span_mm:g}"
             )
         return self

@@ -8,6 +8,7 @@ allowed range, raised before any compute.
 
 from __future__ import annotations
 
+import re
 import tomllib
 from pathlib import Path
 from typing import Any, TypeVar
@@ -25,8 +26,17 @@ class StrictModel(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
 
+# A model validator names the field it checks by starting its message "field: ...".
+_NAMED = re.compile(r"^([A-Za-z_][\w.]*): (.*)$", re.S)
+
+
 def _field_path(loc: tuple[Any, ...]) -> str:
-    return ".".join(str(part) for part in loc) or "<root>"
+    # pydantic puts the union member's type name into the location of errors in
+    # a plain union (``rock.RockRecipe.minerals``); those tags are not fields.
+    parts = [str(p) for i, p in enumerate(loc)
+             if not (isinstance(p, str) and i < len(loc) - 1
+                     and (p == "str" or re.fullmatch(r"[A-Z][A-Za-z0-9]*", p)))]
+    return ".".join(parts) or "<root>"
 
 
 def _describe(error: dict[str, Any]) -> str:
@@ -48,9 +58,19 @@ def _describe(error: dict[str, Any]) -> str:
 
 
 def config_error_from(exc: ValidationError) -> ConfigError:
-    """Turn a pydantic ValidationError into a one-line ConfigError (first problem)."""
-    first = exc.errors()[0]
-    return ConfigError(_field_path(first["loc"]), _describe(first))
+    """Turn a pydantic ValidationError into a one-line ConfigError.
+
+    Of several errors (a union reports one per member) the deepest is the most
+    specific: ``rock.minerals.0.youngs_modulus_GPa`` rather than ``rock``.
+    """
+    errors = exc.errors()
+    first = max(errors, key=lambda e: len(e["loc"]))
+    field, message = _field_path(first["loc"]), _describe(first)
+    named = _NAMED.match(message)
+    if named:
+        prefix = "" if field == "<root>" else field + "."
+        field, message = prefix + named.group(1), named.group(2)
+    return ConfigError(field, message)
 
 
 def validate(model: type[M], data: Any, *, prefix: str = "") -> M:

@@ -61,8 +61,9 @@ def shape_gradients(node_xy: np.ndarray, element_nodes: np.ndarray):
     p = node_xy[element_nodes]
     x, y = p[..., 0], p[..., 1]
     two_a = (x[:, 1] - x[:, 0]) * (y[:, 2] - y[:, 0]) - (x[:, 2] - x[:, 0]) * (y[:, 1] - y[:, 0])
-    dndx = np.column_stack((y[:, 1] - y[:, 2], y[:, 2] - y[:, 0], y[:, 0] - y[:, 1])) / two_a[:, None]
-    dndy = np.column_stack((x[:, 2] - x[:, 1], x[:, 0] - x[:, 2], x[:, 1] - x[:, 0])) / two_a[:, None]
+    inv = 1.0 / two_a[:, None]
+    dndx = np.column_stack((y[:, 1] - y[:, 2], y[:, 2] - y[:, 0], y[:, 0] - y[:, 1])) * inv
+    dndy = np.column_stack((x[:, 2] - x[:, 1], x[:, 0] - x[:, 2], x[:, 1] - x[:, 0])) * inv
     return dndx, dndy, 0.5 * two_a
 
 
