@@ -675,3 +675,42 @@ def select_fissures(
     selected = np.zeros(n_contacts, dtype=bool)
     selected[chosen] = True
     return selected
+
+
+def homogeneous_recipe(
+    mineral: str = "quartz",
+    stiffness_factor: float = 100.0,
+    unbreakable: bool = True,
+    base: str = "strathbogie-granite",
+) -> RockRecipe:
+    """A one-mineral rock without scatter, for verification against continuum solutions.
+
+    Parameters
+    ----------
+    mineral
+        Mineral of every grain (its Table 2 properties are used).
+    stiffness_factor
+        Multiplier on the like-pair contact stiffnesses, so the contacts add
+        negligible compliance to the grains.
+    unbreakable
+        Give the contacts strengths far above any stress a test applies.
+    base
+        Preset the mineral and contact properties are taken from.
+    """
+    source = load_recipe(base)
+    chosen = source.minerals[source.mineral_index(mineral)]
+    code = chosen.code
+    contact = source.contact(f"{code}-{code}")
+    strength = 1.0e9 if unbreakable else None  # MPa
+    props = contact.model_dump()
+    props["normal_stiffness_GPa_per_m"] *= stiffness_factor
+    props["shear_stiffness_GPa_per_m"] *= stiffness_factor
+    if strength is not None:
+        props["cohesion_MPa"] = strength
+        props["tensile_strength_MPa"] = strength
+    return RockRecipe.model_validate({
+        "name": f"homogeneous-{mineral}",
+        "minerals": [{**chosen.model_dump(), "volume_percent": 100.0}],
+        "contacts": {f"{code}-{code}": props},
+        "weibull": {"enabled": False},
+    })

@@ -53,7 +53,8 @@ def element_forces(u, element_nodes, dndx, dndy, area, lam, mu, thickness, force
 
 
 @njit(cache=True)
-def contact_law(u_n, du_s, tau_old, kn, ks, tan_phi, cohesion, tensile_strength, bonded):
+def contact_law(u_n, du_s, tau_old, kn, ks, tan_phi, cohesion, tensile_strength, bonded,
+                allow_failure=True):
     """Coulomb slip with tensile cut-off for one sub-contact (stresses, Pa).
 
     Parameters
@@ -64,6 +65,7 @@ def contact_law(u_n, du_s, tau_old, kn, ks, tan_phi, cohesion, tensile_strength,
     kn, ks : normal and shear stiffness (Pa/m).
     tan_phi, cohesion, tensile_strength : strength (residual friction kept after failure).
     bonded : whether the bond is intact.
+    allow_failure : if False, intact bonds stay elastic whatever the stress.
 
     Returns
     -------
@@ -76,6 +78,8 @@ def contact_law(u_n, du_s, tau_old, kn, ks, tan_phi, cohesion, tensile_strength,
     status = INTACT
     released = 0.0
     if bonded:
+        if not allow_failure:
+            return sigma_n, tau, INTACT, 0.0, 0.0
         if -sigma_n > tensile_strength:
             status = TENSILE
         elif abs(tau) > cohesion + sigma_n * tan_phi:
@@ -108,7 +112,7 @@ def contact_forces(
     u, v, dt, contact_nodes, normal, tangent, contact_area,
     kn, ks, tan_phi, cohesion, tensile_strength,
     bonded, status, sigma_n, tau, pressure_on_contact,
-    released, force, failed_now,
+    released, force, failed_now, allow_failure,
 ):
     """Add contact spring forces and fluid pressure forces to ``force``.
 
@@ -130,7 +134,7 @@ def contact_forces(
         du_s = ((v[b, 0] - v[a, 0]) * tx + (v[b, 1] - v[a, 1]) * ty) * dt
         sn, ts, new_status, w_slip, e_rel = contact_law(
             u_n, du_s, tau[c], kn[c], ks[c], tan_phi[c], cohesion[c],
-            tensile_strength[c], bonded[c],
+            tensile_strength[c], bonded[c], allow_failure,
         )
         if new_status != INTACT:
             bonded[c] = False
@@ -237,7 +241,7 @@ def run_steps(
     tensile_strength, bonded, status, sigma_n, tau, pressure_on_contact, released,
     platen_node_xy, platen_nodes, platen_offsets, platen_axis, platen_side,
     platen_position, platen_velocity, platen_stiffness, platen_reaction, platen_node_force,
-    failed_contact, failed_step, energies,
+    failed_contact, failed_step, energies, allow_failure,
 ):
     """Advance ``n_steps`` explicit steps without returning to Python.
 
@@ -254,7 +258,7 @@ def run_steps(
         w_fric, n_failed = contact_forces(
             u, v, dt, contact_nodes, normal, tangent, contact_area, kn, ks, tan_phi, cohesion,
             tensile_strength, bonded, status, sigma_n, tau, pressure_on_contact, released,
-            force, failed_now,
+            force, failed_now, allow_failure,
         )
         for i in range(n_failed):
             c = failed_now[i]

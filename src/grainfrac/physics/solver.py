@@ -51,6 +51,7 @@ class MechanicsSolver:
         self.model = model
         self.loads = loads if loads is not None else Loads.free(model.n_nodes)
         self.damping = damping
+        self.allow_failure = True
         n, c = model.n_nodes, model.n_contacts
         self.u = np.zeros((n, 2))
         self.v = np.zeros((n, 2))
@@ -98,7 +99,7 @@ class MechanicsSolver:
             m.tensile_strength, self.bonded, self.status, self.sigma_n, self.tau,
             self.contact_pressure, self.released,
             m.node_xy, pn, po, pa, ps, ppos, pvel, pstiff, preac, pnf,
-            self._failed_contact, self._failed_step, self.energies,
+            self._failed_contact, self._failed_step, self.energies, self.allow_failure,
         )
         for platen, pos, reac in zip(ld.platens, ppos, preac, strict=True):
             platen.position = float(pos)
