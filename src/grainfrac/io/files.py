@@ -51,3 +51,15 @@ def write_json(path: str | Path, data: Any) -> Path:
 
 def write_toml(path: str | Path, data: dict[str, Any]) -> Path:
     return write_text(path, tomli_w.dumps(data))
+
+
+def write_csv(path: str | Path, rows: list[dict[str, Any]], columns: list[str]) -> Path:
+    """Write rows (dicts) as CSV with a fixed column order, atomically."""
+    import csv
+    import io
+
+    buffer = io.StringIO()
+    writer = csv.DictWriter(buffer, fieldnames=columns, lineterminator="\n")
+    writer.writeheader()
+    writer.writerows(rows)
+    return write_text(path, buffer.getvalue())
