@@ -1,0 +1,278 @@
+"""Fluid flow along grain boundaries (cubic law), pressure update, the well.
+
+Model (paper Eqs. 2-3, Fig. 3b, Table 4):
+
+- hydraulic aperture of a sub-contact ``a = clamp(a0 + u_n, a_res, a_max)``
+  with ``u_n`` its mechanical opening;
+- a pipe between two consecutive boundary points carries
+  ``q = C (p_i - p_j)`` with conductance ``C = a^3 / (12 mu) * w / l``
+  (``a`` the mean of its end apertures, ``w`` the slab thickness, ``l`` its length);
+- a fluid node stores ``V (1 + p / Kw)`` of fluid (reference-density volume,
+  linearised equation of state), with ``V`` the void volume of the
+  sub-contacts at that point (aperture x area).
+
+The pressure step is backward Euler in conservative form::
+
+    V+ (1 + p+ / Kw) - V (1 + p / Kw) = dt (sum_j C (p_j+ - p_i+) + Q_i)
+
+so the fluid volume balance closes to round-off whatever the step (Eq. 3 is
+its explicit, non-conservative cousin). Fixed-pressure nodes (permeable
+sides) are Dirichlet rows; their net inflow is the outflow. The well is one
+unknown: the fluid nodes on the borehole wall are merged into it, its storage
+is ``V_well c_well p`` plus theirs, and the injection rate is its source.
+Where a crack opens faster than fluid arrives, content falls below the void
+volume: the node is unsaturated and its pressure is zero (no suction).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.linalg import spsolve
+
+from grainfrac.geometry.meshing import GrainMesh
+
+
+@dataclass(frozen=True)
+class FluidProperties:
+    """Fluid and aperture parameters (SI). Defaults: water, paper Table 4."""
+
+    viscosity: float = 1.0e-3  # Pa s
+    bulk_modulus: float = 2.0e9  # Pa
+    initial_aperture: float = 2.0e-7  # a0 (m)
+    residual_aperture: float = 2.0e-7  # a_res (m)
+    maximum_aperture: float = 3.0e-5  # a_max (m)
+
+
+@dataclass(frozen=True)
+class FlowNetwork:
+    """Unknowns and pipes of the pressure solve for one mesh.
+
+    ``unknown_of_node`` maps fluid nodes to unknowns (wall nodes share the well
+    unknown, which is the last one when there is a well).
+    """
+
+    mesh: GrainMesh
+    unknown_of_node: np.ndarray  # (p,)
+    n_unknowns: int
+    well_unknown: int  # -1 without a well
+    well_volume: float  # borehole void volume (m3)
+    well_compressibility: float  # 1/Pa
+    pipe_unknowns: np.ndarray  # (q', 2) pipes that join two different unknowns
+    pipe_index: np.ndarray  # (q',) which mesh pipe
+    fixed: np.ndarray  # (n_unknowns,) bool
+    fixed_pressure: np.ndarray  # (n_unknowns,)
+
+    @property
+    def contact_unknown(self) -> np.ndarray:
+        return self.unknown_of_node[self.mesh.contact_fluid_node]
+
+
+def build_flow_network(
+    mesh: GrainMesh,
+    *,
+    permeable_sides: dict[str, float] | None = None,
+    well: bool = True,
+    well_compressibility: float = 1.0 / 2.0e9,
+) -> FlowNetwork:
+    """Flow unknowns for a mesh.
+
+    Parameters
+    ----------
+    mesh
+        The meshed assembly.
+    permeable_sides
+        Side name -> fixed pressure (Pa) of the fluid nodes on that side.
+    well
+        Merge the borehole-wall fluid nodes into one well unknown.
+    well_compressibility
+        Compressibility of the well fluid volume (1/Pa), default that of water.
+    """
+    n_nodes = len(mesh.fluid_node_xy)
+    unknown = np.arange(n_nodes)
+    well_unknown = -1
+    well_volume = 0.0
+    wall = mesh.fluid_node_sets.get("borehole", np.zeros(0, dtype=np.int64))
+    if well and "borehole" in mesh.boundary_faces:
+        keep = np.ones(n_nodes, dtype=bool)
+        keep[wall] = False
+        unknown = np.full(n_nodes, -1)
+        unknown[keep] = np.arange(keep.sum())
+        well_unknown = int(keep.sum())
+        unknown[wall] = well_unknown
+        faces = mesh.boundary_faces["borehole"]
+        # Area of the borehole polygon from its wall faces (shoelace over edges).
+        a = mesh.node_xy[faces.nodes[:, 0]]
+        b = mesh.node_xy[faces.nodes[:, 1]]
+        well_volume = abs(0.5 * np.sum(a[:, 0] * b[:, 1] - b[:, 0] * a[:, 1])) * mesh.thickness
+    n_unknowns = int(unknown.max()) + 1
+    pu = unknown[mesh.pipe_nodes]
+    distinct = pu[:, 0] != pu[:, 1]
+    fixed = np.zeros(n_unknowns, dtype=bool)
+    fixed_pressure = np.zeros(n_unknowns)
+    for side, pressure in (permeable_sides or {}).items():
+        nodes = mesh.fluid_node_sets[side]
+        ids = unknown[nodes]
+        ids = ids[ids != well_unknown] if well_unknown >= 0 else ids
+        fixed[ids] = True
+        fixed_pressure[ids] = pressure
+    return FlowNetwork(
+        mesh=mesh,
+        unknown_of_node=unknown,
+        n_unknowns=n_unknowns,
+        well_unknown=well_unknown,
+        well_volume=well_volume,
+        well_compressibility=well_compressibility,
+        pipe_unknowns=pu[distinct],
+        pipe_index=np.flatnonzero(distinct),
+        fixed=fixed,
+        fixed_pressure=fixed_pressure,
+    )
+
+
+def hydraulic_aperture(opening: np.ndarray, fluid: FluidProperties) -> np.ndarray:
+    """``clamp(a0 + opening, a_res, a_max)`` per sub-contact (m)."""
+    return np.clip(fluid.initial_aperture + opening, fluid.residual_aperture,
+                   fluid.maximum_aperture)
+
+
+def pipe_conductance(network: FlowNetwork, aperture: np.ndarray,
+                     fluid: FluidProperties) -> np.ndarray:
+    """Cubic-law conductance (m3 / (s Pa)) of each pipe that joins two unknowns."""
+    mesh = network.mesh
+    ends = mesh.pipe_contacts[network.pipe_index]
+    a = 0.5 * (aperture[ends[:, 0]] + aperture[ends[:, 1]])
+    i = network.pipe_index
+    return a**3 / (12.0 * fluid.viscosity) * mesh.pipe_width[i] / mesh.pipe_length[i]
+
+
+def storage_volume(network: FlowNetwork, aperture: np.ndarray) -> np.ndarray:
+    """Void volume (m3) of each unknown: apertures x sub-contact areas (+ the borehole)."""
+    v = np.bincount(network.contact_unknown, weights=aperture * network.mesh.contact_area,
+                    minlength=network.n_unknowns)
+    if network.well_unknown >= 0:
+        v[network.well_unknown] += network.well_volume
+    return v
+
+
+def _compressibility(network: FlowNetwork, fluid: FluidProperties) -> np.ndarray:
+    c = np.full(network.n_unknowns, 1.0 / fluid.bulk_modulus)
+    if network.well_unknown >= 0:
+        c[network.well_unknown] = network.well_compressibility
+    return c
+
+
+@dataclass
+class FluidState:
+    """Pressures and fluid content per unknown, and the running volume balance.
+
+    ``content`` is the fluid held by each unknown as a reference-density volume
+    (m3); it changes only by flow, so the balance ``injected = stored +
+    outflow`` is exact. Pressure follows from content and void volume; where
+    content falls below the void volume the node is unsaturated at p = 0.
+    """
+
+    pressure: np.ndarray
+    volume: np.ndarray
+    content: np.ndarray
+    injected: float = 0.0
+    outflow: float = 0.0
+
+    def stored(self, free: np.ndarray) -> float:
+        """Fluid held by the free unknowns (m3 at reference density)."""
+        return float(self.content[free].sum())
+
+
+def initial_state(network: FlowNetwork, aperture: np.ndarray, fluid: FluidProperties,
+                  pressure: float | np.ndarray = 0.0) -> FluidState:
+    """Saturated network at ``pressure`` (fixed nodes at their fixed pressure)."""
+    p = np.broadcast_to(np.asarray(pressure, dtype=float), (network.n_unknowns,)).copy()
+    p[network.fixed] = network.fixed_pressure[network.fixed]
+    v = storage_volume(network, aperture)
+    return FluidState(pressure=p, volume=v,
+                      content=v * (1.0 + _compressibility(network, fluid) * p))
+
+
+def _sources(network: FlowNetwork, injection_rate: float) -> np.ndarray:
+    q = np.zeros(network.n_unknowns)
+    if injection_rate:
+        if network.well_unknown < 0:
+            raise ValueError("injection needs a well")
+        q[network.well_unknown] = injection_rate
+    return q
+
+
+def _laplacian(network: FlowNetwork, cond: np.ndarray) -> sp.csr_matrix:
+    n = network.n_unknowns
+    i, j = network.pipe_unknowns[:, 0], network.pipe_unknowns[:, 1]
+    return sp.coo_matrix(
+        (np.concatenate((cond, cond, -cond, -cond)),
+         (np.concatenate((i, j, i, j)), np.concatenate((i, j, j, i)))), shape=(n, n)
+    ).tocsr()
+
+
+def implicit_step(network: FlowNetwork, state: FluidState, aperture: np.ndarray, dt: float,
+                  fluid: FluidProperties, injection_rate: float = 0.0,
+                  compliance: np.ndarray | None = None) -> None:
+    """Advance pressures by ``dt``: backward Euler on fluid content; update the balance.
+
+    Solves, for the free unknowns,
+    ``(V c + beta) p+ - dt sum_j C (p_j+ - p_i+) = content - V + beta p + dt Q``
+    where ``beta`` (m3/Pa) is the opening compliance of the pores at fixed
+    total stress (fixed-stress split: it stands in for the mechanical response
+    to the pressure change that the staggered mechanics delivers next; with
+    ``beta = 0`` this is the plain conservative step). Content then changes by
+    exactly the net flow.
+    """
+    c = _compressibility(network, fluid)
+    v_new = storage_volume(network, aperture)
+    beta = np.zeros(network.n_unknowns) if compliance is None else compliance
+    lap = _laplacian(network, pipe_conductance(network, aperture, fluid))
+    source = _sources(network, injection_rate)
+    storage = v_new * c + beta
+    rhs = state.content - v_new + beta * state.pressure + dt * source
+    matrix = (sp.diags(storage) + dt * lap).tocsr()
+    free = ~network.fixed
+    p_new = network.fixed_pressure.copy()
+    if free.any():
+        a_ff = matrix[free][:, free].tocsc()
+        b = rhs[free] - (matrix[free][:, network.fixed] @ p_new[network.fixed])
+        p_new[free] = spsolve(a_ff, b)
+    net_in = -(lap @ p_new) + source
+    state.content[free] += dt * net_in[free]
+    state.outflow += float(dt * net_in[network.fixed].sum())
+    state.injected += dt * injection_rate
+    state.pressure = np.where(free & (p_new < 0.0), 0.0, p_new)
+    state.volume = v_new
+
+
+def explicit_step(network: FlowNetwork, state: FluidState, aperture: np.ndarray, dt: float,
+                  fluid: FluidProperties, injection_rate: float = 0.0) -> None:
+    """Forward-Euler reference of :func:`implicit_step` (stable only for tiny ``dt``)."""
+    c = _compressibility(network, fluid)
+    v_new = storage_volume(network, aperture)
+    lap = _laplacian(network, pipe_conductance(network, aperture, fluid))
+    source = _sources(network, injection_rate)
+    net_in = -(lap @ state.pressure) + source
+    free = ~network.fixed
+    state.content[free] += dt * net_in[free]
+    state.outflow += float(dt * net_in[network.fixed].sum())
+    state.injected += dt * injection_rate
+    p_new = state.pressure.copy()
+    p_new[free] = ((state.content / v_new - 1.0) / c)[free]
+    state.pressure = np.where(free & (p_new < 0.0), 0.0, p_new)
+    state.volume = v_new
+
+
+def stable_explicit_dt(network: FlowNetwork, aperture: np.ndarray,
+                       fluid: FluidProperties) -> float:
+    """Largest stable forward-Euler step: min_i V_i c_i / sum_j C_ij."""
+    c = _compressibility(network, fluid)
+    v = storage_volume(network, aperture)
+    cond = pipe_conductance(network, aperture, fluid)
+    total = np.bincount(network.pipe_unknowns.ravel(), weights=np.repeat(cond, 2),
+                        minlength=network.n_unknowns)
+    free = ~network.fixed & (total > 0)
+    return float(np.min(v[free] * c[free] / total[free]))
