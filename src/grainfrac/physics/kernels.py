@@ -164,11 +164,12 @@ def update_nodes(u, v, force, external, mass, dt, alpha, fixed, prescribed_veloc
     F_d = -alpha |F| sign(v);  v += dt (F + F_d) / m;  u += dt v.
     ``fixed[n, d]`` holds a component at ``prescribed_velocity[n, d]``.
     Returns (boundary work of external forces and supports, damping work,
-    sum |unbalanced force| over free components) of this step.
+    sum |unbalanced force| over free components, max |v| (inf if NaN)) of this step.
     """
     w_ext = 0.0
     w_damp = 0.0
     unbalanced = 0.0
+    vmax = 0.0
     for n in range(u.shape[0]):
         for d in range(2):
             f = force[n, d] + external[n, d]
@@ -185,7 +186,10 @@ def update_nodes(u, v, force, external, mass, dt, alpha, fixed, prescribed_veloc
                 w_damp -= fd * v[n, d] * dt
             w_ext += external[n, d] * v[n, d] * dt
             u[n, d] += dt * v[n, d]
-    return w_ext, w_damp, unbalanced
+            # not (|v| <= vmax) is also true for NaN
+            if not abs(v[n, d]) <= vmax:
+                vmax = abs(v[n, d]) if abs(v[n, d]) == abs(v[n, d]) else np.inf
+    return w_ext, w_damp, unbalanced, vmax
 
 
 @njit(cache=True)
@@ -241,14 +245,16 @@ def run_steps(
     tensile_strength, bonded, status, sigma_n, tau, pressure_on_contact, released,
     platen_node_xy, platen_nodes, platen_offsets, platen_axis, platen_side,
     platen_position, platen_velocity, platen_stiffness, platen_reaction, platen_node_force,
-    failed_contact, failed_step, energies, allow_failure,
+    failed_contact, failed_step, energies, allow_failure, velocity_limit,
 ):
     """Advance ``n_steps`` explicit steps without returning to Python.
 
     ``energies`` accumulates [external work, damping work, friction work,
     released bond energy, platen work]. Broken contacts are appended to
-    ``failed_contact`` / ``failed_step`` (step index within this call); the
-    number appended is returned (the buffers must hold every contact).
+    ``failed_contact`` / ``failed_step`` (step index within this call).
+    Returns (number of cracks appended, steps done). The loop stops early,
+    after the offending step, when any velocity exceeds ``velocity_limit`` or
+    is not finite: a blow-up is caught where it starts.
     """
     n_failed_total = 0
     failed_now = np.empty(contact_nodes.shape[0], dtype=np.int64)
@@ -275,12 +281,14 @@ def run_steps(
                 u, platen_node_xy, platen_nodes[lo:hi], platen_axis[p], platen_side[p],
                 platen_position[p], platen_stiffness[lo:hi], force, platen_node_force[lo:hi],
             )
-        w_ext, w_damp, _ = update_nodes(u, v, force, external, mass, dt, alpha, fixed,
-                                        prescribed_velocity)
+        w_ext, w_damp, _, vmax = update_nodes(u, v, force, external, mass, dt, alpha, fixed,
+                                              prescribed_velocity)
         for p in range(platen_axis.shape[0]):
             ax = platen_axis[p]
             for i in range(platen_offsets[p], platen_offsets[p + 1]):
                 energies[4] += platen_node_force[i] * v[platen_nodes[i], ax] * dt
         energies[0] += w_ext
         energies[1] += w_damp
-    return n_failed_total
+        if vmax > velocity_limit:
+            return n_failed_total, step + 1
+    return n_failed_total, n_steps

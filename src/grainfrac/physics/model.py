@@ -46,6 +46,7 @@ class MechanicalModel:
     nodal_stiffness: np.ndarray  # (n,) Gershgorin bound (N/m)
     dt: float
     mass_scaled: bool
+    safety: float
 
     @property
     def n_nodes(self) -> int:
@@ -121,6 +122,8 @@ def build_mechanical_model(
     safety
         Fraction of the critical time step used.
     """
+    if not 0.0 < safety < 1.0:
+        raise ValueError(f"safety must be in (0, 1), got {safety}")
     mesh = assembly.mesh
     dndx, dndy, area = shape_gradients(mesh.node_xy, mesh.element_nodes)
     lam, mu = lame_parameters(assembly.element_youngs_modulus, assembly.element_poisson_ratio)
@@ -168,4 +171,5 @@ def build_mechanical_model(
         nodal_stiffness=k_nodes,
         dt=float(dt),
         mass_scaled=mass_scaling,
+        safety=safety,
     )
