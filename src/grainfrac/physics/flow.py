@@ -235,17 +235,39 @@ def implicit_step(network: FlowNetwork, state: FluidState, aperture: np.ndarray,
     rhs = state.content - v_new + beta * state.pressure + dt * source
     matrix = (sp.diags(storage) + dt * lap).tocsr()
     free = ~network.fixed
-    p_new = network.fixed_pressure.copy()
-    if free.any():
-        a_ff = matrix[free][:, free].tocsc()
-        b = rhs[free] - (matrix[free][:, network.fixed] @ p_new[network.fixed])
-        p_new[free] = spsolve(a_ff, b)
+    p_new = _solve_without_suction(matrix, rhs, network.fixed, network.fixed_pressure)
     net_in = -(lap @ p_new) + source
     state.content[free] += dt * net_in[free]
     state.outflow += float(dt * net_in[network.fixed].sum())
     state.injected += dt * injection_rate
-    state.pressure = np.where(free & (p_new < 0.0), 0.0, p_new)
+    state.pressure = p_new
     state.volume = v_new
+
+
+def _solve_without_suction(matrix: sp.csr_matrix, rhs: np.ndarray, fixed: np.ndarray,
+                           fixed_pressure: np.ndarray, max_rounds: int = 50) -> np.ndarray:
+    """Solve ``matrix p = rhs`` with ``p >= 0`` on the free unknowns (active set).
+
+    Fluid cannot pull (no suction): where the unconstrained solution is negative
+    (a pore opening faster than fluid can reach it) the node is unsaturated and
+    held at p = 0, and the system is solved again, so the flows towards it are
+    driven by its neighbours' pressures only.
+    """
+    pinned = fixed.copy()
+    p = np.where(fixed, fixed_pressure, 0.0)
+    for _ in range(max_rounds):
+        free = ~pinned
+        if not free.any():
+            break
+        a_ff = matrix[free][:, free].tocsc()
+        b = rhs[free] - matrix[free][:, pinned] @ p[pinned]
+        p[free] = spsolve(a_ff, b)
+        negative = free & (p < 0.0)
+        if not negative.any():
+            break
+        p[negative] = 0.0
+        pinned |= negative
+    return np.maximum(p, np.where(fixed, -np.inf, 0.0))
 
 
 def explicit_step(network: FlowNetwork, state: FluidState, aperture: np.ndarray, dt: float,

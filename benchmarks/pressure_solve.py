@@ -1,0 +1,126 @@
+"""Benchmark: where the wall time of a coupled injection run goes.
+
+On the default slab (100 x 100 mm, 10 mm borehole, seed 0), in-situ stress
+case 2 (2.5 / 5 MPa), outer sides drained at 0 Pa, 90 ml/min into the well,
+``N`` coupled steps of ``dt``. Each :meth:`HydroMechanicalSolver.advance`
+does one implicit pressure solve (:func:`grainfrac.physics.flow.implicit_step`)
+and one batch of explicit mechanics steps (:meth:`MechanicsSolver.cycle`);
+both are wrapped with ``time.perf_counter`` and their share of the total
+wall time of the advances is printed. The rest ("other") is the coupling
+glue: apertures from openings, pore compliances, pressure loads, history.
+
+A few warm-up steps run first and are not counted (numba's first call, scipy's
+first factorisation).
+
+Usage::
+
+    python benchmarks/pressure_solve.py --steps 200 --dt 1e-5
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+
+from grainfrac.assembly import SpecimenConfig, build_assembly
+from grainfrac.io.config import validate
+from grainfrac.loading.insitu import STRESS_CASES, initialise_in_situ
+from grainfrac.physics import flow
+from grainfrac.physics.coupled import HydroMechanicalSolver
+from grainfrac.physics.model import build_mechanical_model
+from grainfrac.physics.solver import MechanicsSolver
+from grainfrac.units import ML_PER_MIN, MPA
+
+
+def build_solver(seed: int, case: str) -> HydroMechanicalSolver:
+    config = validate(SpecimenConfig, {"seed": seed})
+    assembly = build_assembly(config, config.recipe())
+    mechanics = MechanicsSolver(build_mechanical_model(assembly))
+    sx, sy, _ = STRESS_CASES[case]
+    initialise_in_situ(mechanics, assembly.mesh, sx * MPA, sy * MPA)
+    network = flow.build_flow_network(
+        assembly.mesh, permeable_sides=dict.fromkeys(("left", "right", "top", "bottom"), 0.0),
+        well=True)
+    return HydroMechanicalSolver(assembly, mechanics, network, flow.FluidProperties())
+
+
+def timed_run(solver: HydroMechanicalSolver, steps: int, dt: float,
+              rate: float) -> dict[str, float]:
+    """Advance ``steps`` times; return wall seconds in the flow solve, the mechanics, in all."""
+    times = {"flow": 0.0, "mechanics": 0.0, "total": 0.0}
+    original_step = flow.implicit_step
+    original_cycle = solver.mechanics.cycle
+
+    def timed_step(*args, **kwargs):
+        start = time.perf_counter()
+        try:
+            return original_step(*args, **kwargs)
+        finally:
+            times["flow"] += time.perf_counter() - start
+
+    def timed_cycle(*args, **kwargs):
+        start = time.perf_counter()
+        try:
+            return original_cycle(*args, **kwargs)
+        finally:
+            times["mechanics"] += time.perf_counter() - start
+
+    flow.implicit_step = timed_step
+    solver.mechanics.cycle = timed_cycle
+    try:
+        start = time.perf_counter()
+        for _ in range(steps):
+            solver.advance(dt, rate)
+        times["total"] = time.perf_counter() - start
+    finally:
+        flow.implicit_step = original_step
+        del solver.mechanics.cycle
+    return times
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--steps", type=int, default=200, help="coupled (fluid) steps timed")
+    parser.add_argument("--dt", type=float, default=1e-5, help="fluid step (s)")
+    parser.add_argument("--rate", type=float, default=90.0, help="injection rate (ml/min)")
+    parser.add_argument("--seed", type=int, default=0, help="random seed of the slab")
+    parser.add_argument("--case", default="case2", choices=sorted(STRESS_CASES),
+                        help="in-situ stress case (paper Table 6)")
+    parser.add_argument("--warmup", type=int, default=5, help="untimed steps first")
+    args = parser.parse_args(argv)
+    if args.steps < 1:
+        parser.error("--steps must be >= 1")
+
+    start = time.perf_counter()
+    solver = build_solver(args.seed, args.case)
+    setup = time.perf_counter() - start
+    rate = args.rate * ML_PER_MIN
+    for _ in range(args.warmup):
+        solver.advance(args.dt, rate)
+    times = timed_run(solver, args.steps, args.dt, rate)
+
+    m = solver.mechanics
+    substeps = max(1, math.ceil(args.dt / m.model.dt))
+    total = times["total"]
+    other = total - times["flow"] - times["mechanics"]
+    print(f"default slab, seed {args.seed}, {args.case}, {args.rate:g} ml/min: "
+          f"{solver.network.n_unknowns} pressure unknowns, {m.model.n_nodes} nodes, "
+          f"{m.model.n_contacts} sub-contacts; setup (build + in-situ) {setup:.2f} s")
+    print(f"{args.steps} coupled steps of {args.dt:g} s ({substeps} mechanics steps of "
+          f"{m.model.dt:.3g} s each): {total:.3f} s wall, "
+          f"{1e3 * total / args.steps:.2f} ms per step")
+    print(f"{'part':<30}{'wall (s)':>10}{'per step (ms)':>15}{'share':>9}")
+    for name, label in (("flow", "flow.implicit_step"), ("mechanics", "mechanics.cycle")):
+        print(f"{label:<30}{times[name]:>10.3f}{1e3 * times[name] / args.steps:>15.3f}"
+              f"{100 * times[name] / total:>8.1f}%")
+    print(f"{'other (coupling glue)':<30}{other:>10.3f}{1e3 * other / args.steps:>15.3f}"
+          f"{100 * other / total:>8.1f}%")
+    print(f"state after: well pressure {solver.well_pressure / MPA:.3f} MPa, "
+          f"{len(m.cracks.contact)} cracks")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

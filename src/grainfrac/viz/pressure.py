@@ -1,0 +1,60 @@
+"""Well pressure against time during injection, with the crack count (breakdown curve)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from grainfrac.io.files import write_atomic  # noqa: E402
+
+PRESSURE_COLOUR = "#2c7bb6"
+CRACK_COLOUR = "#d7191c"
+
+
+def plot_well_pressure(time, pressure, cracks, path: str | Path, *,
+                       title: str | None = None) -> Path:
+    """Save a PNG of well pressure (MPa) and cumulative cracks against time (ms).
+
+    Parameters
+    ----------
+    time
+        Times (s) since the start of injection.
+    pressure
+        Well pressures (Pa).
+    cracks
+        Cumulative number of cracks at each time.
+    path
+        Output PNG path (written atomically).
+    """
+    t_ms = np.asarray(time, dtype=float) * 1e3
+    p_mpa = np.asarray(pressure, dtype=float) / 1e6
+    n = np.asarray(cracks)
+    fig, ax = plt.subplots(figsize=(6.0, 4.0), dpi=150)
+    ax.plot(t_ms, p_mpa, color=PRESSURE_COLOUR, lw=1.6, label="well pressure")
+    if len(p_mpa):
+        k = int(np.argmax(p_mpa))
+        ax.plot(t_ms[k], p_mpa[k], "o", color=PRESSURE_COLOUR, ms=5)
+        ax.annotate(f"breakdown {p_mpa[k]:.2f} MPa at {t_ms[k]:.2f} ms", (t_ms[k], p_mpa[k]),
+                    textcoords="offset points", xytext=(6, 6), fontsize=8)
+        ax.set_ylim(top=max(1.15 * p_mpa[k], ax.get_ylim()[1]))
+    ax.set_xlabel("time since injection start (ms)")
+    ax.set_ylabel("well pressure (MPa)", color=PRESSURE_COLOUR)
+    ax.grid(True, alpha=0.25)
+    twin = ax.twinx()
+    twin.step(t_ms, n, where="post", color=CRACK_COLOUR, lw=1.2, label="cracks")
+    twin.set_ylabel("cracks (cumulative)", color=CRACK_COLOUR)
+    twin.set_ylim(bottom=0)
+    lines = ax.get_lines()[:1] + twin.get_lines()
+    ax.legend(lines, [ln.get_label() for ln in lines], fontsize=8, frameon=False,
+              loc="upper left")
+    if title:
+        ax.set_title(title, fontsize=10)
+    fig.tight_layout()
+    out = write_atomic(path, lambda p: fig.savefig(p, format="png", bbox_inches="tight"))
+    plt.close(fig)
+    return out

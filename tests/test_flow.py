@@ -1,0 +1,241 @@
+"""Grain-boundary flow: cubic law, implicit vs explicit, mass balance, permeability, breakdown.
+
+Each test prints what it observed next to its tolerance (run with ``-s``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from grainfrac.assembly import SpecimenConfig, build_assembly
+from grainfrac.io.config import validate
+from grainfrac.loading.insitu import STRESS_CASES, initialise_in_situ
+from grainfrac.physics import flow
+from grainfrac.physics.coupled import HydroMechanicalSolver
+from grainfrac.physics.model import build_mechanical_model
+from grainfrac.physics.solver import MechanicsSolver
+from grainfrac.units import ML_PER_MIN, MPA
+from grainfrac.verification import hydraulic
+
+OUTER_SIDES = ("left", "right", "top", "bottom")
+INJECTION_RATE = 90.0 * ML_PER_MIN
+COUPLED_DT = 1e-5  # s per fluid step
+COUPLED_STEPS = 600  # 6 ms of injection: build-up, breakdown near 4 ms, decline after
+BALANCE_STEP = 300  # mass balance checked after 3 ms as well as at the end
+BALANCE_TOLERANCE = 0.005
+STATE_TOLERANCE = 0.01
+
+
+@pytest.fixture(scope="module")
+def slab():
+    """The default slab (100 x 100 mm, 10 mm borehole, seed 0)."""
+    config = validate(SpecimenConfig, {"seed": 0})
+    return build_assembly(config, config.recipe())
+
+
+def _stored_from_state(network, state, aperture, fluid, free) -> float:
+    """Fluid held by the free unknowns from void volumes and pressures (equation of state).
+
+    Independent of the ``content`` bookkeeping: saturated nodes hold
+    ``V (1 + c p)`` with ``V`` from the current apertures; unsaturated ones
+    (content below the void volume) hold their content.
+    """
+    v = flow.storage_volume(network, aperture)
+    c = np.full(network.n_unknowns, 1.0 / fluid.bulk_modulus)
+    if network.well_unknown >= 0:
+        c[network.well_unknown] = network.well_compressibility
+    held = np.where(state.content < v, state.content, v * (1.0 + c * state.pressure))
+    return float(held[free].sum())
+
+
+@pytest.fixture(scope="module")
+def injection(slab):
+    """Coupled injection into the intact default slab, in-situ case 2, 90 ml/min.
+
+    Records the balance terms after every step and the state-based storage at
+    the checkpoints.
+    """
+    model = build_mechanical_model(slab)
+    mechanics = MechanicsSolver(model)
+    sx, sy, _ = STRESS_CASES["case2"]
+    initialise_in_situ(mechanics, slab.mesh, sx * MPA, sy * MPA)
+    fluid = flow.FluidProperties()
+    network = flow.build_flow_network(slab.mesh, permeable_sides=dict.fromkeys(OUTER_SIDES, 0.0),
+                                      well=True)
+    solver = HydroMechanicalSolver(slab, mechanics, network, fluid)
+    free = ~network.fixed
+    t0 = mechanics.time
+    stored0 = solver.state.stored(free)
+    eos0 = _stored_from_state(network, solver.state, solver.aperture(), fluid, free)
+    rows = []
+    for step in range(1, COUPLED_STEPS + 1):
+        solver.advance(COUPLED_DT, INJECTION_RATE)
+        st = solver.state
+        row = {"injected": st.injected, "stored": st.stored(free) - stored0,
+               "outflow": st.outflow}
+        if step in (BALANCE_STEP, COUPLED_STEPS):
+            row["stored_eos"] = _stored_from_state(network, st, solver.aperture(), fluid,
+                                                   free) - eos0
+        rows.append(row)
+    h = solver.history
+    return {
+        "time": np.array(h.time) - t0,
+        "pressure": np.array(h.well_pressure),
+        "cracks": np.array(h.n_cracks),
+        "rows": rows,
+    }
+
+
+# -- cubic law ------------------------------------------------------------------------------
+def test_cubic_law_single_channel():
+    rows = hydraulic.cubic_law(aperture=2e-5, pressure_drop=1e6)
+    assert len(rows) == 2
+    for r in rows:
+        print(f"\ncubic law: {r.quantity}: simulated {r.simulated:.6g}, analytical "
+              f"{r.analytical:.6g}, relative error {r.relative_error:.2e} "
+              f"(tolerance {r.tolerance:g})")
+        assert r.passed
+        assert r.relative_error < 0.01
+
+
+def test_cubic_law_scales_with_aperture_cubed():
+    small = hydraulic.cubic_law(aperture=1e-5)[0].simulated
+    large = hydraulic.cubic_law(aperture=2e-5)[0].simulated
+    print(f"\nflow-rate ratio for 2x aperture: {large / small:.6f} (cubic law: 8)")
+    assert large / small == pytest.approx(8.0, rel=1e-6)
+
+
+def test_two_grain_channel_geometry():
+    mesh = hydraulic.two_grain_channel()
+    assert mesh.grains.n_grains == 2 and mesh.n_interfaces == 1
+    assert np.allclose(mesh.fluid_node_xy[:, 0], 0.0)
+    assert mesh.pipe_length.sum() == pytest.approx(0.05)
+    assert len(mesh.fluid_node_sets["top"]) == 1 and len(mesh.fluid_node_sets["bottom"]) == 1
+
+
+# -- implicit vs explicit -------------------------------------------------------------------
+def test_implicit_matches_explicit_reference(slab):
+    """Well injection without mechanics: implicit at 100x the explicit limit vs explicit at 0.5x."""
+    fluid = flow.FluidProperties()
+    network = flow.build_flow_network(slab.mesh, permeable_sides=dict.fromkeys(OUTER_SIDES, 0.0),
+                                      well=True)
+    aperture = flow.hydraulic_aperture(np.zeros(slab.mesh.n_contacts), fluid)
+    limit = flow.stable_explicit_dt(network, aperture, fluid)
+    rate = 1.0 * ML_PER_MIN
+    n_implicit = 50
+    dt_implicit = 100.0 * limit
+    total = n_implicit * dt_implicit
+    n_explicit = int(np.ceil(total / (0.5 * limit)))
+
+    implicit = flow.initial_state(network, aperture, fluid)
+    well = []
+    for _ in range(n_implicit):
+        flow.implicit_step(network, implicit, aperture, dt_implicit, fluid, rate)
+        well.append(implicit.pressure[network.well_unknown])
+    explicit = flow.initial_state(network, aperture, fluid)
+    for _ in range(n_explicit):
+        flow.explicit_step(network, explicit, aperture, total / n_explicit, fluid, rate)
+
+    diff = np.max(np.abs(implicit.pressure - explicit.pressure)) / np.max(explicit.pressure)
+    print(f"\nexplicit limit {limit:.3e} s; implicit {n_implicit} steps of {dt_implicit:.3e} s "
+          f"(100x), explicit {n_explicit} steps of {total / n_explicit:.3e} s (0.5x), "
+          f"t = {total:.3f} s: well {implicit.pressure[network.well_unknown] / MPA:.4f} vs "
+          f"{explicit.pressure[network.well_unknown] / MPA:.4f} MPa, max |dp| / max p = "
+          f"{diff:.2e} (tolerance {STATE_TOLERANCE:g})")
+    assert diff < STATE_TOLERANCE
+    # Stable at 100x the explicit limit: the well pressure rises monotonically and the
+    # pressures obey the discrete maximum principle (0 <= p <= p_well).
+    assert np.all(np.diff(well) > 0)
+    assert implicit.pressure.min() >= 0.0
+    assert implicit.pressure.max() <= implicit.pressure[network.well_unknown] * (1 + 1e-12)
+
+
+def test_explicit_step_diverges_beyond_its_limit(slab):
+    """The reference scheme itself is only conditionally stable (what the implicit step avoids)."""
+    fluid = flow.FluidProperties()
+    network = flow.build_flow_network(slab.mesh, permeable_sides=dict.fromkeys(OUTER_SIDES, 0.0),
+                                      well=True)
+    aperture = flow.hydraulic_aperture(np.zeros(slab.mesh.n_contacts), fluid)
+    limit = flow.stable_explicit_dt(network, aperture, fluid)
+    state = flow.initial_state(network, aperture, fluid)
+    for _ in range(300):
+        flow.explicit_step(network, state, aperture, 10.0 * limit, fluid, ML_PER_MIN)
+    peak = np.max(np.abs(state.pressure))
+    print(f"\nexplicit at 10x its limit, 300 steps: max |p| = {peak:.3e} Pa (diverged if > 1 GPa)")
+    assert not np.isfinite(peak) or peak > 1e9
+
+
+# -- fluid mass balance ---------------------------------------------------------------------
+@pytest.mark.parametrize("step", [BALANCE_STEP, COUPLED_STEPS])
+def test_mass_balance_coupled_injection(injection, step):
+    row = injection["rows"][step - 1]
+    injected = row["injected"]
+    books = abs(injected - (row["stored"] + row["outflow"])) / injected
+    state = abs(injected - (row["stored_eos"] + row["outflow"])) / injected
+    print(f"\nafter {step * COUPLED_DT * 1e3:.1f} ms: injected {injected * 1e9:.4f} mm3, "
+          f"outflow {row['outflow'] * 1e9:.3e} mm3; |injected - (stored change + outflow)| / "
+          f"injected = {books:.2e} (fluid content), {state:.2e} (from apertures and pressures); "
+          f"tolerance {BALANCE_TOLERANCE:g}")
+    assert books < BALANCE_TOLERANCE
+    assert state < BALANCE_TOLERANCE
+
+
+# -- permeability ---------------------------------------------------------------------------
+def test_intact_permeability_order_1e19():
+    result = hydraulic.permeability(initial_aperture=2e-7, seed=0)
+    k = result["permeability_m2"]
+    imbalance = abs(result["flow_rate_m3_s"] - result["outflow_m3_s"]) / result["flow_rate_m3_s"]
+    print(f"\npermeability at a0 = 2e-7 m: k = {k:.3e} m2 (expected 1e-20 < k < 1e-18, "
+          f"experiment 1e-19); Q = {result['flow_rate_m3_s']:.3e} m3/s, "
+          f"{result['steps']} implicit steps, in/out mismatch {imbalance:.1e}, "
+          f"{result['n_grains']} grains")
+    assert 1e-20 < k < 1e-18
+    assert imbalance < 1e-6
+
+
+def test_permeability_curve_and_figure(tmp_path):
+    from grainfrac.viz.permeability import plot_permeability
+
+    curve = hydraulic.permeability_curve(apertures=(1e-7, 2e-7, 4e-7), seeds=(0, 1))
+    mean = np.array(curve["mean_m2"])
+    print("\npermeability vs a0: " + ", ".join(
+        f"{a:.1e} m -> {k:.2e} m2" for a, k in zip(curve["initial_aperture_m"], mean,
+                                                   strict=True)))
+    # No mechanics: conductances go as a0^3, storage does not enter the steady state.
+    assert mean[1] / mean[0] == pytest.approx(8.0, rel=1e-6)
+    assert mean[2] / mean[1] == pytest.approx(8.0, rel=1e-6)
+    out = plot_permeability(curve, tmp_path / "permeability.png")
+    data = out.read_bytes()
+    print(f"figure {out.name}: {len(data)} bytes")
+    assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10_000
+
+
+# -- breakdown ------------------------------------------------------------------------------
+def test_breakdown_of_intact_slab(injection, tmp_path):
+    from grainfrac.viz.pressure import plot_well_pressure
+
+    t, p, n = injection["time"], injection["pressure"], injection["cracks"]
+    k = int(np.argmax(p))
+    peak, t_peak = p[k], t[k]
+    first_crack = int(np.flatnonzero(n > 0)[0])
+    dips = np.diff(p[: k + 1])
+    worst_dip = float(-dips.min()) if len(dips) else 0.0
+    drop = 1.0 - p[-1] / peak
+    print(f"\nbreakdown: peak {peak / MPA:.3f} MPa at {t_peak * 1e3:.2f} ms after injection start; "
+          f"first crack at {t[first_crack] * 1e3:.2f} ms ({p[first_crack] / MPA:.2f} MPa); "
+          f"cracks at peak {n[k]}, at end {n[-1]}; largest dip before the peak "
+          f"{worst_dip / MPA:.3f} MPa (tolerance 1 % of peak); pressure at "
+          f"{t[-1] * 1e3:.2f} ms {p[-1] / MPA:.3f} MPa = {100 * drop:.1f} % below peak "
+          f"(needs > 5 %)")
+    # Build-up: strictly monotone until the first crack, then no dip over 1 % of the peak.
+    assert np.all(np.diff(p[: first_crack + 1]) > 0)
+    assert worst_dip < 0.01 * peak
+    assert 0 < k < len(p) - 1
+    # Cracks appear before and around the peak and keep growing after it.
+    assert first_crack <= k
+    assert n[-1] > n[k]
+    # Breakdown: the pressure some time after the peak is lower by more than 5 %.
+    assert drop > 0.05
+    out = plot_well_pressure(t, p, n, tmp_path / "breakdown.png")
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and out.stat().st_size > 10_000
