@@ -110,5 +110,38 @@ def _print_specimen_summary(summary: dict, out: Path) -> None:
                   "summary.json")
 
 
+@app.command()
+def verify(
+    name: Annotated[str, typer.Argument(help="Verification case (kirsch, lame, ...).")],
+    json_rows: Annotated[bool, typer.Option(
+        "--json", help="One JSON object per compared quantity instead of a table.")] = False,
+    seed: Annotated[int, typer.Option(help="Seed of the grain structure.")] = 0,
+) -> None:
+    """Compare a simulation with its analytical solution; exit 1 if any quantity fails."""
+    import json
+
+    from grainfrac.verification import CASES, all_passed, comparison_table
+
+    if name not in CASES:
+        _fail(ValueError(f"unknown verification case {name!r}; known: {', '.join(CASES)}"))
+    start = time.perf_counter()
+    try:
+        if json_rows:
+            comparisons = CASES[name](seed=seed)
+        else:
+            with console.status(f"running verification case {name}..."):
+                comparisons = CASES[name](seed=seed)
+    except GrainfracError as exc:
+        _fail(exc)
+    wall = time.perf_counter() - start
+    if json_rows:
+        for c in comparisons:
+            typer.echo(json.dumps(c.as_row()))
+    else:
+        console.print(comparison_table(
+            comparisons, title=f"verification: {name} (seed {seed}, {wall:.1f} s)"))
+    raise typer.Exit(code=0 if all_passed(comparisons) else 1)
+
+
 if __name__ == "__main__":  # pragma: no cover
     app()

@@ -1,0 +1,31 @@
+"""Verification against analytical solutions: ``grainfrac verify NAME``.
+
+Every case is a function ``case(seed=0) -> list[Comparison]`` registered in
+:data:`CASES` under its command-line name; it builds, runs and measures its own
+model, prints nothing and raises only on a failure to run (a miss of a
+tolerance is a failed :class:`Comparison`, not an exception). Future cases
+(``cubic-law``, ``kgd``, ``penny``) plug in by adding an entry.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from grainfrac.verification import elastic, hydraulic
+from grainfrac.verification.report import (
+    ROW_KEYS,
+    Comparison,
+    all_passed,
+    comparison_table,
+    print_comparisons,
+)
+
+#: Command-line name -> case function (called as ``case(seed=N)``).
+CASES: dict[str, Callable[..., list[Comparison]]] = {
+    "kirsch": elastic.kirsch,
+    "lame": elastic.lame,
+    "cubic-law": hydraulic.cubic_law,
+}
+
+__all__ = ["CASES", "ROW_KEYS", "Comparison", "all_passed", "comparison_table",
+           "print_comparisons"]
