@@ -44,14 +44,19 @@ def test_snapshot_series(ucs, tmp_path):
         u = rng.normal(size=(n, 2)) * 1e-6
         status = np.zeros(c, dtype=np.int64)
         status[:3] = TENSILE
+        pressure = rng.uniform(0, 1e7, size=c)
+        aperture = rng.uniform(2e-7, 3e-5, size=c)
         series.write(ucs, time=0.1 * k, u=u, stress=rng.normal(size=(m, 4)),
-                     sigma_n=rng.normal(size=c), tau=rng.normal(size=c), status=status)
+                     sigma_n=rng.normal(size=c), tau=rng.normal(size=c), status=status,
+                     pressure=pressure, aperture=aperture)
     grains = meshio.read(tmp_path / "snapshots" / "grains_0001.vtu")
     np.testing.assert_allclose(grains.point_data["displacement_m"][:, :2], u)
     assert grains.cell_data["stress_Pa"][0].shape == (m, 6)
     contacts = meshio.read(tmp_path / "snapshots" / "contacts_0001.vtu")
     np.testing.assert_allclose(contacts.cell_data["opening_m"][0], contact_opening(ucs, u))
     assert contacts.cell_data["failed"][0][:3].tolist() == [1, 1, 1]
+    np.testing.assert_allclose(contacts.cell_data["pressure_Pa"][0], pressure)
+    np.testing.assert_allclose(contacts.cell_data["aperture_m"][0], aperture)
     root = ET.parse(tmp_path / "snapshots" / "series.pvd").getroot()
     files = [d.get("file") for d in root.iter("DataSet")]
     assert files == ["grains_0000.vtu", "contacts_0000.vtu", "grains_0001.vtu",
