@@ -21,22 +21,34 @@ TENSILE = 1
 SHEAR = 2
 
 
-@njit(cache=True, fastmath=False)
-def element_forces(u, element_nodes, dndx, dndy, area, lam, mu, thickness, force, stress):
+@njit(cache=True)
+def _elastic_strain(u, e, element_nodes, dndx, dndy, eigenstrain, initial_strain):
+    """Elastic strain of element ``e``: B u minus its initial strain and in-plane eigenstrain."""
+    exx = -initial_strain[e, 0] - eigenstrain[e]
+    eyy = -initial_strain[e, 1] - eigenstrain[e]
+    gxy = -initial_strain[e, 2]
+    for k in range(3):
+        n = element_nodes[e, k]
+        exx += dndx[e, k] * u[n, 0]
+        eyy += dndy[e, k] * u[n, 1]
+        gxy += dndy[e, k] * u[n, 0] + dndx[e, k] * u[n, 1]
+    return exx, eyy, gxy
+
+
+@njit(cache=True)
+def element_forces(u, element_nodes, dndx, dndy, area, lam, mu, thickness, force, stress,
+                   eigenstrain, initial_strain):
     """Add plane-strain internal forces of linear triangles to ``force``; store stresses.
 
-    eps = B u;  sigma = lam tr(eps) I + 2 mu eps;  f_a = -A t B_a^T sigma.
+    eps = B u - eps0 - e_x I, where ``initial_strain`` eps0 = (xx, yy, xy
+    engineering) lets a body inserted into a loaded specimen start stress-free
+    and the isotropic in-plane ``eigenstrain`` e_x drives SCDA expansion;
+    sigma = lam tr(eps) I + 2 mu eps;  f_a = -A t B_a^T sigma.
     ``stress[e] = (sxx, syy, sxy, szz)``.
     """
     for e in range(element_nodes.shape[0]):
-        exx = 0.0
-        eyy = 0.0
-        gxy = 0.0
-        for k in range(3):
-            n = element_nodes[e, k]
-            exx += dndx[e, k] * u[n, 0]
-            eyy += dndy[e, k] * u[n, 1]
-            gxy += dndy[e, k] * u[n, 0] + dndx[e, k] * u[n, 1]
+        exx, eyy, gxy = _elastic_strain(u, e, element_nodes, dndx, dndy, eigenstrain,
+                                        initial_strain)
         tr = lam[e] * (exx + eyy)
         sxx = tr + 2.0 * mu[e] * exx
         syy = tr + 2.0 * mu[e] * eyy
@@ -112,12 +124,14 @@ def contact_forces(
     u, v, dt, contact_nodes, normal, tangent, contact_area,
     kn, ks, tan_phi, cohesion, tensile_strength,
     bonded, status, sigma_n, tau, pressure_on_contact,
-    released, force, failed_now, allow_failure,
+    released, force, failed_now, allow_failure, opening_offset,
 ):
     """Add contact spring forces and fluid pressure forces to ``force``.
 
     Relative displacement of the second node with respect to the first:
-    opening ``u_n = (u_b - u_a).n``; shear increment ``(v_b - v_a).t dt``.
+    opening ``u_n = (u_b - u_a).n - offset``; shear increment ``(v_b - v_a).t dt``.
+    ``opening_offset`` is the opening at which a contact was created (zero for
+    grain boundaries; the wall misfit for an SCDA plug inserted after loading).
     A fluid pressure ``p`` pushes the two faces apart (force ``p A`` on each).
     Returns the frictional work of this step (J).
     """
@@ -130,7 +144,7 @@ def contact_forces(
         ny = normal[c, 1]
         tx = tangent[c, 0]
         ty = tangent[c, 1]
-        u_n = (u[b, 0] - u[a, 0]) * nx + (u[b, 1] - u[a, 1]) * ny
+        u_n = (u[b, 0] - u[a, 0]) * nx + (u[b, 1] - u[a, 1]) * ny - opening_offset[c]
         du_s = ((v[b, 0] - v[a, 0]) * tx + (v[b, 1] - v[a, 1]) * ty) * dt
         sn, ts, new_status, w_slip, e_rel = contact_law(
             u_n, du_s, tau[c], kn[c], ks[c], tan_phi[c], cohesion[c],
@@ -213,18 +227,13 @@ def platen_forces(u, node_xy, nodes, axis, side, position, stiffness, force, nod
 
 
 @njit(cache=True)
-def element_strain_energy(u, element_nodes, dndx, dndy, area, lam, mu, thickness):
-    """Elastic strain energy stored in the grains (J)."""
+def element_strain_energy(u, element_nodes, dndx, dndy, area, lam, mu, thickness,
+                          eigenstrain, initial_strain):
+    """Elastic strain energy stored in the elements (J)."""
     total = 0.0
     for e in range(element_nodes.shape[0]):
-        exx = 0.0
-        eyy = 0.0
-        gxy = 0.0
-        for k in range(3):
-            n = element_nodes[e, k]
-            exx += dndx[e, k] * u[n, 0]
-            eyy += dndy[e, k] * u[n, 1]
-            gxy += dndy[e, k] * u[n, 0] + dndx[e, k] * u[n, 1]
+        exx, eyy, gxy = _elastic_strain(u, e, element_nodes, dndx, dndy, eigenstrain,
+                                        initial_strain)
         tr = lam[e] * (exx + eyy)
         w = 0.5 * ((tr + 2.0 * mu[e] * exx) * exx + (tr + 2.0 * mu[e] * eyy) * eyy
                    + mu[e] * gxy * gxy)
@@ -246,11 +255,14 @@ def run_steps(
     platen_node_xy, platen_nodes, platen_offsets, platen_axis, platen_side,
     platen_position, platen_velocity, platen_stiffness, platen_reaction, platen_node_force,
     failed_contact, failed_step, energies, allow_failure, velocity_limit,
+    eigenstrain, eigenstrain_rate, initial_strain, opening_offset,
 ):
     """Advance ``n_steps`` explicit steps without returning to Python.
 
     ``energies`` accumulates [external work, damping work, friction work,
-    released bond energy, platen work]. Broken contacts are appended to
+    released bond energy, platen work, expansion work]. The eigenstrain grows
+    by ``eigenstrain_rate dt`` per step; the work it does on the body is
+    ``-A t (sxx + syy) d(eigenstrain)``. Broken contacts are appended to
     ``failed_contact`` / ``failed_step`` (step index within this call).
     Returns (number of cracks appended, steps done). The loop stops early,
     after the offending step, when any velocity exceeds ``velocity_limit`` or
@@ -258,13 +270,22 @@ def run_steps(
     """
     n_failed_total = 0
     failed_now = np.empty(contact_nodes.shape[0], dtype=np.int64)
+    expanding = np.flatnonzero(eigenstrain_rate)
     for step in range(n_steps):
+        for i in range(expanding.shape[0]):
+            e = expanding[i]
+            eigenstrain[e] += eigenstrain_rate[e] * dt
         force[:, :] = 0.0
-        element_forces(u, element_nodes, dndx, dndy, area, lam, mu, thickness, force, stress)
+        element_forces(u, element_nodes, dndx, dndy, area, lam, mu, thickness, force, stress,
+                       eigenstrain, initial_strain)
+        for i in range(expanding.shape[0]):
+            e = expanding[i]
+            energies[5] -= (area[e] * thickness * (stress[e, 0] + stress[e, 1])
+                            * eigenstrain_rate[e] * dt)
         w_fric, n_failed = contact_forces(
             u, v, dt, contact_nodes, normal, tangent, contact_area, kn, ks, tan_phi, cohesion,
             tensile_strength, bonded, status, sigma_n, tau, pressure_on_contact, released,
-            force, failed_now, allow_failure,
+            force, failed_now, allow_failure, opening_offset,
         )
         for i in range(n_failed):
             c = failed_now[i]

@@ -122,50 +122,79 @@ def build_mechanical_model(
     safety
         Fraction of the critical time step used.
     """
+    mesh = assembly.mesh
+    return model_from_arrays(
+        node_xy=mesh.node_xy,
+        element_nodes=mesh.element_nodes,
+        youngs_modulus=assembly.element_youngs_modulus,
+        poisson_ratio=assembly.element_poisson_ratio,
+        density=assembly.element_density,
+        thickness=mesh.thickness,
+        contact_nodes=mesh.contact_nodes,
+        contact_normal=mesh.contact_normal,
+        contact_tangent=mesh.contact_tangent,
+        contact_area=mesh.contact_area,
+        normal_stiffness=assembly.contact_view("normal_stiffness"),
+        shear_stiffness=assembly.contact_view("shear_stiffness"),
+        friction_angle=assembly.contact_view("friction_angle"),
+        cohesion=assembly.contact_view("cohesion"),
+        tensile_strength=assembly.contact_view("tensile_strength"),
+        bonded=~assembly.contact_view("fissure"),
+        mass_scaling=mass_scaling,
+        safety=safety,
+    )
+
+
+def model_from_arrays(
+    *, node_xy, element_nodes, youngs_modulus, poisson_ratio, density, thickness,
+    contact_nodes, contact_normal, contact_tangent, contact_area, normal_stiffness,
+    shear_stiffness, friction_angle, cohesion, tensile_strength, bonded,
+    mass_scaling: bool = True, safety: float = 0.5,
+) -> MechanicalModel:
+    """Build a :class:`MechanicalModel` from per-element and per-contact arrays (SI)."""
     if not 0.0 < safety < 1.0:
         raise ValueError(f"safety must be in (0, 1), got {safety}")
-    mesh = assembly.mesh
-    dndx, dndy, area = shape_gradients(mesh.node_xy, mesh.element_nodes)
-    lam, mu = lame_parameters(assembly.element_youngs_modulus, assembly.element_poisson_ratio)
-    t = mesh.thickness
-    real_mass = np.zeros(mesh.n_nodes)
-    np.add.at(real_mass, mesh.element_nodes,
-              np.repeat((assembly.element_density * area * t / 3.0)[:, None], 3, axis=1))
-    kn = assembly.contact_view("normal_stiffness")
-    ks = assembly.contact_view("shear_stiffness")
+    n_nodes = len(node_xy)
+    dndx, dndy, area = shape_gradients(node_xy, element_nodes)
+    if np.any(area <= 0):
+        raise ValueError("elements must be counter-clockwise with positive area")
+    lam, mu = lame_parameters(youngs_modulus, poisson_ratio)
+    real_mass = np.zeros(n_nodes)
+    np.add.at(real_mass, element_nodes,
+              np.repeat((density * area * thickness / 3.0)[:, None], 3, axis=1))
     k_nodes = nodal_stiffness_bound(
-        mesh.n_nodes, mesh.element_nodes, dndx, dndy, area, lam, mu, t,
-        mesh.contact_nodes, mesh.contact_normal, mesh.contact_tangent, mesh.contact_area, kn, ks,
+        n_nodes, element_nodes, dndx, dndy, area, lam, mu, thickness,
+        contact_nodes, contact_normal, contact_tangent, contact_area, normal_stiffness,
+        shear_stiffness,
     )
     if mass_scaling:
-        k_grain = np.zeros((mesh.n_nodes, 2))
-        np.add.at(k_grain, mesh.element_nodes,
-                  _element_row_sums(dndx, dndy, area, lam, mu, t))
+        k_grain = np.zeros((n_nodes, 2))
+        np.add.at(k_grain, element_nodes,
+                  _element_row_sums(dndx, dndy, area, lam, mu, thickness))
         dt = safety * 2.0 / np.sqrt(np.max(k_grain.max(axis=1) / real_mass))
         mass = np.maximum(real_mass, k_nodes * (dt / (2.0 * safety)) ** 2)
     else:
         mass = real_mass
         dt = safety * 2.0 / np.sqrt(np.max(k_nodes / mass))
-    bonded = ~assembly.contact_view("fissure")
     return MechanicalModel(
-        node_xy=mesh.node_xy,
-        element_nodes=mesh.element_nodes,
+        node_xy=node_xy,
+        element_nodes=element_nodes,
         dndx=dndx,
         dndy=dndy,
         element_area=area,
         lam=lam,
         mu=mu,
-        thickness=t,
-        contact_nodes=mesh.contact_nodes,
-        contact_normal=mesh.contact_normal,
-        contact_tangent=mesh.contact_tangent,
-        contact_area=mesh.contact_area,
-        normal_stiffness=kn,
-        shear_stiffness=ks,
-        tan_friction=np.tan(assembly.contact_view("friction_angle")),
-        cohesion=assembly.contact_view("cohesion"),
-        tensile_strength=assembly.contact_view("tensile_strength"),
-        initially_bonded=bonded,
+        thickness=thickness,
+        contact_nodes=contact_nodes,
+        contact_normal=contact_normal,
+        contact_tangent=contact_tangent,
+        contact_area=contact_area,
+        normal_stiffness=normal_stiffness,
+        shear_stiffness=shear_stiffness,
+        tan_friction=np.tan(friction_angle),
+        cohesion=cohesion,
+        tensile_strength=tensile_strength,
+        initially_bonded=np.asarray(bonded, dtype=bool),
         mass=mass,
         real_mass=real_mass,
         nodal_stiffness=k_nodes,

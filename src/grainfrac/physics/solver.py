@@ -17,7 +17,7 @@ from grainfrac.physics import kernels
 from grainfrac.physics.model import MechanicalModel
 
 ENERGY_KEYS = ("boundary_work", "damping_work", "friction_work", "bond_energy_released",
-               "platen_work")
+               "platen_work", "expansion_work")
 
 
 class NumericalBlowUp(GrainfracError):
@@ -80,6 +80,11 @@ class MechanicsSolver:
         self.tau = np.zeros(c)
         self.contact_pressure = np.zeros(c)
         self.released = np.zeros(c)
+        m = len(model.element_nodes)
+        self.eigenstrain = np.zeros(m)
+        self.eigenstrain_rate = np.zeros(m)
+        self.initial_strain = np.zeros((m, 3))
+        self.opening_offset = np.zeros(c)
         self.energies = np.zeros(len(ENERGY_KEYS))
         self.time = 0.0
         self.step_count = 0
@@ -117,7 +122,8 @@ class MechanicsSolver:
             self.contact_pressure, self.released,
             m.node_xy, pn, po, pa, ps, ppos, pvel, pstiff, preac, pnf,
             self._failed_contact, self._failed_step, self.energies, self.allow_failure,
-            self.velocity_limit,
+            self.velocity_limit, self.eigenstrain, self.eigenstrain_rate, self.initial_strain,
+            self.opening_offset,
         )
         for platen, pos, reac in zip(ld.platens, ppos, preac, strict=True):
             platen.position = float(pos)
@@ -171,7 +177,8 @@ class MechanicsSolver:
     def grain_strain_energy(self) -> float:
         m = self.model
         return float(kernels.element_strain_energy(
-            self.u, m.element_nodes, m.dndx, m.dndy, m.element_area, m.lam, m.mu, m.thickness))
+            self.u, m.element_nodes, m.dndx, m.dndy, m.element_area, m.lam, m.mu, m.thickness,
+            self.eigenstrain, self.initial_strain))
 
     def contact_strain_energy(self) -> float:
         m = self.model
@@ -184,7 +191,7 @@ class MechanicsSolver:
         out["grain_strain_energy"] = self.grain_strain_energy()
         out["contact_strain_energy"] = self.contact_strain_energy()
         out["kinetic_energy"] = self.kinetic_energy()
-        work_in = out["boundary_work"] + out["platen_work"]
+        work_in = out["boundary_work"] + out["platen_work"] + out["expansion_work"]
         stored = out["grain_strain_energy"] + out["contact_strain_energy"] + out["kinetic_energy"]
         dissipated = (out["damping_work"] + out["friction_work"]
                       + out["bond_energy_released"])
