@@ -167,8 +167,8 @@ def test_si_views():
     scda = scenario.stages[1]
     assert isinstance(scda, ScdaStage)
     assert isinstance(scda.material(), ScdaRecipe)
-    assert scda.velocity(0.0) == pytest.approx(1e-3)
-    assert scda.velocity(0.05) == pytest.approx(1e-3 * 2.718281828 ** -1)
+    assert scda.velocity(0.0) == pytest.approx(5e-3)  # default f = 5 mm/s
+    assert scda.velocity(0.05) == pytest.approx(5e-3 * 2.718281828 ** -1)
 
 
 def test_presets():
