@@ -1,0 +1,147 @@
+"""The stage driver: run directory, determinism, resume after a kill, blow-up reporting."""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from grainfrac.cli import app
+from grainfrac.io.config import validate
+from grainfrac.physics.coupled import HydroMechanicalSolver
+from grainfrac.scenario import Scenario, write_resolved
+from grainfrac.simulation import RunFailed, run_scenario
+
+SMALL = {
+    "name": "small-hs",
+    "seed": 3,
+    "specimen": {"shape": "slab", "width_mm": 60.0, "height_mm": 60.0,
+                 "borehole_diameter_mm": 10.0},
+    "stress": {"case": "case2"},
+    "stages": [
+        {"kind": "equilibrate"},
+        {"kind": "inject", "rate_ml_per_min": 90.0, "duration_ms": 5.0, "time_step_ms": 0.1},
+    ],
+    "output": {"snapshot_every_ms": 0.5, "checkpoint_every_minutes": 1e-9},
+}
+
+
+def _scenario(**changes) -> Scenario:
+    return validate(Scenario, {**SMALL, **changes})
+
+
+def _comparable(summary: dict) -> dict:
+    return {k: v for k, v in summary.items() if k != "wall_time_s"}
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    out = tmp_path_factory.mktemp("ref")
+    sc = _scenario()
+    return out, run_scenario(sc, sc.recipe(), out)
+
+
+def test_run_directory_has_every_file(reference):
+    out, summary = reference
+    for name in ("config.toml", "summary.json", "history.csv", "cracks.csv",
+                 "snapshots/series.pvd", "snapshots/grains_0000.vtu",
+                 "snapshots/contacts_0000.vtu", "figures/fractures.png",
+                 "figures/well_pressure.png", "checkpoint/state.npz"):
+        assert (out / name).stat().st_size > 0, name
+    on_disk = json.loads((out / "summary.json").read_text())
+    for key in ("grainfrac_version", "seed", "wall_time_s", "n_grains", "n_elements",
+                "n_contacts", "breakdown_pressure_MPa", "breakdown_time_s",
+                "peak_expansive_pressure_MPa", "n_cracks", "n_tensile_cracks",
+                "n_shear_cracks", "tensile_shear_ratio", "n_radial_fractures",
+                "fracture_extent_mm", "tortuosity", "energy_tensile_J", "energy_shear_J",
+                "energy_friction_J", "contact_fraction_total", "contact_fraction_failed"):
+        assert key in on_disk, key
+    assert on_disk["injected_volume_ml"] <= 90.0 / 60.0 * 5e-3 * (1 + 1e-9)
+    assert on_disk["n_cracks"] > 0 and on_disk["breakdown_pressure_MPa"] is not None
+    rows = list(csv.DictReader(open(out / "history.csv")))
+    assert {r["stage"] for r in rows} == {"equilibrate", "inject"}
+    assert float(rows[-1]["well_pressure_MPa"]) > 1.0
+    print(f"\nsmall HS run: {summary['n_grains']} grains, peak well pressure "
+          f"{summary['peak_well_pressure_MPa']:.2f} MPa, {summary['n_cracks']} cracks")
+
+
+def test_same_scenario_and_seed_give_identical_summary(reference, tmp_path):
+    sc = _scenario()
+    again = run_scenario(sc, sc.recipe(), tmp_path / "again")
+    assert _comparable(again) == _comparable(reference[1])
+
+
+def test_resume_after_kill_mid_injection_gives_the_same_result(reference, tmp_path):
+    out = tmp_path / "killed"
+    sc = _scenario()
+    seen = {"inject": 0}
+
+    class Killed(Exception):
+        pass
+
+    def kill_midway(p):
+        if p.stage_kind == "inject":
+            seen["inject"] += 1
+            if seen["inject"] == 12:
+                raise Killed
+
+    with pytest.raises(Killed):
+        run_scenario(sc, sc.recipe(), out, progress=kill_midway)
+    assert not (out / "summary.json").exists()
+    resumed = run_scenario(sc, sc.recipe(), out, resume=True)
+    assert _comparable(resumed) == _comparable(reference[1])
+    ref_rows = (reference[0] / "cracks.csv").read_text()
+    assert (out / "cracks.csv").read_text() == ref_rows
+    print(f"\nresumed after 12 of 50 injection steps: summary identical "
+          f"({resumed['n_cracks']} cracks, peak {resumed['peak_well_pressure_MPa']:.3f} MPa)")
+
+
+def test_blow_up_names_stage_step_time_and_keeps_last_good_state(tmp_path, monkeypatch):
+    original = HydroMechanicalSolver.advance
+
+    def unstable(self, dt, injection_rate=0.0):
+        if len(self.history.time) == 5:
+            self.mechanics.velocity_limit = 1e-12  # any motion now counts as a runaway
+        return original(self, dt, injection_rate)
+
+    monkeypatch.setattr(HydroMechanicalSolver, "advance", unstable)
+    sc = _scenario()
+    with pytest.raises(RunFailed) as info:
+        run_scenario(sc, sc.recipe(), tmp_path / "boom")
+    message = str(info.value)
+    print(f"\n{message}")
+    assert "stage 2 (inject)" in message and "step" in message and "t = " in message
+    assert "checkpoint" in message
+    assert (tmp_path / "boom" / "checkpoint" / "state.npz").is_file()
+    assert (tmp_path / "boom" / "history.csv").is_file()
+    assert not (tmp_path / "boom" / "summary.json").exists()
+
+
+def test_cli_run_and_bad_scenario(tmp_path, reference):
+    runner = CliRunner()
+    sc = _scenario(stages=SMALL["stages"][:1])
+    path = tmp_path / "eq.toml"
+    write_resolved(path, sc, sc.recipe())
+    result = runner.invoke(app, ["run", str(path), "--out", str(tmp_path / "eq")])
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "eq" / "summary.json").is_file()
+
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[[stages]]\nkind = "inject"\nrate_ml_per_min = -5\nduration_ms = 1\n')
+    result = runner.invoke(app, ["run", str(bad), "--out", str(tmp_path / "bad")])
+    assert result.exit_code == 2
+    lines = [ln for ln in result.output.splitlines() if ln.strip()]
+    assert len(lines) == 1 and "rate_ml_per_min" in lines[0], result.output
+    assert not (tmp_path / "bad").exists()
+
+
+def test_examples_are_valid_scenarios():
+    from grainfrac.scenario import load_scenario
+
+    files = sorted((Path(__file__).resolve().parents[1] / "examples").glob("*.toml"))
+    assert len(files) >= 10
+    for path in files:
+        load_scenario(path)
