@@ -461,7 +461,7 @@ def run_scenario(scenario: Scenario, recipe: RockRecipe, out: str | Path, *,
     from grainfrac.physics.cracks import crack_catalogue
     from grainfrac.scenario import write_resolved
     from grainfrac.viz.fractures import plot_fracture_pattern
-    from grainfrac.viz.pressure import plot_well_pressure
+    from grainfrac.viz.pressure import plot_stage_history, plot_well_pressure
 
     out = Path(out)
     run = Run(scenario, recipe, out, base_dir=base_dir, progress=progress)
@@ -495,5 +495,7 @@ def run_scenario(scenario: Scenario, recipe: RockRecipe, out: str | Path, *,
         plot_well_pressure(np.asarray(h.time) - t0, np.asarray(h.well_pressure),
                            np.asarray(h.n_cracks), figures / "well_pressure.png",
                            title=f"{scenario.name}: well pressure")
+    plot_stage_history(run.state.history, figures / "pressures.png",
+                       title=f"{scenario.name}: pressures and cracks by stage")
     write_json(out / "summary.json", summary)
     return summary
