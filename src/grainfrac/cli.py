@@ -218,3 +218,22 @@ def _print_run_summary(results: dict[str, dict]) -> None:
             cells = [_fmt(r.get(key), spec) for r in results.values()]
         table.add_row(label, *cells)
     console.print(table)
+
+
+@app.command()
+def report(
+    run_dirs: Annotated[list[Path], typer.Argument(help="One or more run directories.")],
+    out: Annotated[Path | None, typer.Option("--out", help="HTML file (default: report.html "
+                                             "in the run directory, or beside several)")] = None,
+) -> None:
+    """Self-contained HTML report of runs; with several, a side-by-side comparison."""
+    from grainfrac.viz.report import build_report
+
+    if out is None:
+        out = (run_dirs[0] / "report.html" if len(run_dirs) == 1
+               else run_dirs[0].parent / "report.html")
+    try:
+        path = build_report(run_dirs, out)
+    except GrainfracError as exc:
+        _fail(exc)
+    console.print(f"wrote {path}")
