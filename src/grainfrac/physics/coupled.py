@@ -20,6 +20,13 @@ from grainfrac.loading.boundary import normal_pressure_forces
 from grainfrac.physics import flow
 from grainfrac.physics.solver import MechanicsSolver
 
+# Open-crack compliance A L / E' times this factor (Sneddon's mean opening of a
+# pressurised crack is (pi/4) p L / E'). Measured on the default hybrid run and a
+# small HS run at a 0.1 ms step: 1.5 let fluid pile up and spike the well
+# pressure by 3 MPa when a crack closed; 0.5 started to oscillate (1.7 MPa
+# jumps); 1.0 is smooth in both.
+CRACK_COMPLIANCE_FACTOR = 1.0
+
 
 @dataclass
 class CoupledHistory:
@@ -58,15 +65,16 @@ class HydroMechanicalSolver:
             if network.well_unknown >= 0 else None
         )
         self.state = flow.initial_state(network, self.aperture(), fluid)
-        # Opening stiffness of a crack whose spring no longer closes it: the softest
-        # grain's stiffness over a crack length. The fixed-stress split is stable
-        # only if this does not overstate the stiffness (measured: 5 mm ran away
-        # once cracks grew, and the stiffest grain over 18 mm tripled the crack
-        # count at a 0.1 ms step), so take the longest length fractures reach,
-        # half the specimen's smaller side.
-        span = np.ptp(assembly.mesh.node_xy, axis=0).min()
-        self.open_stiffness = float(np.min(mechanics.model.lam + 2 * mechanics.model.mu)) / (
-            0.5 * span)
+        # Plane-strain modulus of the softest grain: a crack opens against it.
+        m = mechanics.model
+        nu = m.lam / (2.0 * (m.lam + m.mu))
+        youngs = m.mu * 2.0 * (1.0 + nu)
+        self.crack_modulus = float(np.min(youngs / (1.0 - nu**2)))
+        mesh = assembly.mesh
+        self._wall_nodes = np.zeros(len(mesh.fluid_node_xy), dtype=bool)
+        self._wall_nodes[mesh.fluid_node_sets.get("borehole", np.zeros(0, np.int64))] = True
+        outline = mesh.grains.outline
+        self._well_diameter = 2.0 * outline.borehole_radius
         self.history = CoupledHistory()
         self._apply_pressure()
 
@@ -87,16 +95,46 @@ class HydroMechanicalSolver:
         self.mechanics.loads.external[:] = external
 
     def pore_compliance(self) -> np.ndarray:
-        """Opening compliance at fixed total stress per unknown (m3/Pa): sum A / k.
+        """Opening compliance at fixed total stress per unknown (m3/Pa): sum of A dw/dp.
 
-        A closed or bonded sub-contact opens by dp / kn under a pressure change;
-        an open crack by about dp / k_open, with the grains' stiffness.
+        A closed or bonded sub-contact opens by dp / kn. An open crack (no spring
+        holds it) opens against the grains: a pressurised crack of length L in
+        plane strain opens by about (pi/4) dp L / E' on average (Sneddon), so its
+        sub-contacts get ``CRACK_COMPLIANCE_FACTOR`` A L / E'. L is measured:
+        open sub-contacts joined by pipes form a crack, whose length is the sum
+        of its pipes, plus the well diameter if it reaches the wall. Overstating
+        the stiffness makes the staggered coupling unstable; overstating the
+        compliance makes pressure lag and spike (both measured), hence the
+        measured length.
         """
         m = self.mechanics
         is_open = ~m.bonded & (m.sigma_n <= 0.0)
-        k = np.where(is_open, self.open_stiffness, m.model.normal_stiffness)
-        return np.bincount(self.network.contact_unknown, weights=m.model.contact_area / k,
+        compliance = m.model.contact_area / m.model.normal_stiffness
+        if is_open.any():
+            length = self._open_crack_length(is_open)
+            crack = CRACK_COMPLIANCE_FACTOR * m.model.contact_area * length / self.crack_modulus
+            compliance = np.where(is_open, np.maximum(compliance, crack), compliance)
+        return np.bincount(self.network.contact_unknown, weights=compliance,
                            minlength=self.network.n_unknowns)
+
+    def _open_crack_length(self, is_open: np.ndarray) -> np.ndarray:
+        """Length (m) of the open crack each sub-contact belongs to (0 where closed)."""
+        from scipy.sparse import coo_matrix
+        from scipy.sparse.csgraph import connected_components
+
+        mesh = self.assembly.mesh
+        n = len(mesh.fluid_node_xy)
+        open_pipe = is_open[mesh.pipe_contacts[:, 0]] & is_open[mesh.pipe_contacts[:, 1]]
+        ends = mesh.pipe_nodes[open_pipe]
+        graph = coo_matrix((np.ones(len(ends)), (ends[:, 0], ends[:, 1])), shape=(n, n))
+        _, label = connected_components(graph, directed=False)
+        length = np.bincount(label[ends[:, 0]], weights=mesh.pipe_length[open_pipe],
+                             minlength=label.max() + 1)
+        touches = np.zeros(label.max() + 1, dtype=bool)
+        touches[label[self._wall_nodes]] = True
+        crack_length = length + np.where(touches, self._well_diameter, 0.0)
+        crack_length = np.maximum(crack_length, mesh.zone_size)
+        return np.where(is_open, crack_length[label[mesh.contact_fluid_node]], 0.0)
 
     def advance(self, dt: float, injection_rate: float = 0.0) -> None:
         """One coupled step of ``dt`` seconds with ``injection_rate`` (m3/s) into the well."""
