@@ -145,3 +145,18 @@ def test_examples_are_valid_scenarios():
     assert len(files) >= 10
     for path in files:
         load_scenario(path)
+
+
+def test_energy_figures_sum_to_the_mechanics_balance(reference):
+    """Issue 7: reported crack energies match the mechanics' books; the books close."""
+    summary = reference[1]
+    books = summary["energy_balance_J"]
+    cracks = summary["energy_tensile_J"] + summary["energy_shear_J"]
+    released = books["bond_energy_released"]
+    closure = abs(books["residual"]) / books["work_in"]
+    print(f"\ncrack energies {cracks:.6e} J vs released in the books {released:.6e} J; "
+          f"balance residual {closure:.2%} of work in (boundary {books['boundary_work']:.4f} J,"
+          f" fluid {books['fluid_work']:.4f} J); tolerance 2 %")
+    assert cracks == pytest.approx(released, rel=0.02)
+    assert summary["energy_friction_J"] == pytest.approx(books["friction_work"], rel=1e-12)
+    assert closure < 0.02

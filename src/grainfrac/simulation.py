@@ -440,6 +440,9 @@ def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
         connect_distance=1.5 * a.mesh.zone_size,
     ))
     out["energy_friction_J"] = float(s.energies[2])
+    # The mechanics' own books (J): work in (boundary, expansion, fluid), stored,
+    # dissipated (damping, friction, bonds released) and the residual.
+    out["energy_balance_J"] = s.energy_balance()
     total, failed = contact_fractions(a.contact_view("pair"), a.contact_view("pair")[contact],
                                       a.pair_names)
     out["contact_fraction_total"] = total

@@ -133,9 +133,11 @@ def contact_forces(
     ``opening_offset`` is the opening at which a contact was created (zero for
     grain boundaries; the wall misfit for an SCDA plug inserted after loading).
     A fluid pressure ``p`` pushes the two faces apart (force ``p A`` on each).
-    Returns the frictional work of this step (J).
+    Returns the frictional work of this step (J), the number of contacts that
+    broke, and the work of the fluid pressure on the faces (J, p A du_n).
     """
     friction_work = 0.0
+    fluid_work = 0.0
     n_failed = 0
     for c in range(contact_nodes.shape[0]):
         a = contact_nodes[c, 0]
@@ -146,6 +148,8 @@ def contact_forces(
         ty = tangent[c, 1]
         u_n = (u[b, 0] - u[a, 0]) * nx + (u[b, 1] - u[a, 1]) * ny - opening_offset[c]
         du_s = ((v[b, 0] - v[a, 0]) * tx + (v[b, 1] - v[a, 1]) * ty) * dt
+        du_n = ((v[b, 0] - v[a, 0]) * nx + (v[b, 1] - v[a, 1]) * ny) * dt
+        fluid_work += pressure_on_contact[c] * contact_area[c] * du_n
         sn, ts, new_status, w_slip, e_rel = contact_law(
             u_n, du_s, tau[c], kn[c], ks[c], tan_phi[c], cohesion[c],
             tensile_strength[c], bonded[c], allow_failure,
@@ -168,7 +172,7 @@ def contact_forces(
         force[b, 1] += fy
         force[a, 0] -= fx
         force[a, 1] -= fy
-    return friction_work, n_failed
+    return friction_work, n_failed, fluid_work
 
 
 @njit(cache=True)
@@ -260,7 +264,7 @@ def run_steps(
     """Advance ``n_steps`` explicit steps without returning to Python.
 
     ``energies`` accumulates [external work, damping work, friction work,
-    released bond energy, platen work, expansion work]. The eigenstrain grows
+    released bond energy, platen work, expansion work, fluid work]. The eigenstrain grows
     by ``eigenstrain_rate dt`` per step; the work it does on the body is
     ``-A t (sxx + syy) d(eigenstrain)``. Broken contacts are appended to
     ``failed_contact`` / ``failed_step`` (step index within this call).
@@ -282,7 +286,7 @@ def run_steps(
             e = expanding[i]
             energies[5] -= (area[e] * thickness * (stress[e, 0] + stress[e, 1])
                             * eigenstrain_rate[e] * dt)
-        w_fric, n_failed = contact_forces(
+        w_fric, n_failed, w_fluid = contact_forces(
             u, v, dt, contact_nodes, normal, tangent, contact_area, kn, ks, tan_phi, cohesion,
             tensile_strength, bonded, status, sigma_n, tau, pressure_on_contact, released,
             force, failed_now, allow_failure, opening_offset,
@@ -294,6 +298,7 @@ def run_steps(
             n_failed_total += 1
             energies[3] += released[c]
         energies[2] += w_fric
+        energies[6] += w_fluid
         for p in range(platen_axis.shape[0]):
             lo = platen_offsets[p]
             hi = platen_offsets[p + 1]

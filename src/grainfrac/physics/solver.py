@@ -17,7 +17,7 @@ from grainfrac.physics import kernels
 from grainfrac.physics.model import MechanicalModel
 
 ENERGY_KEYS = ("boundary_work", "damping_work", "friction_work", "bond_energy_released",
-               "platen_work", "expansion_work")
+               "platen_work", "expansion_work", "fluid_work")
 
 
 class NumericalBlowUp(GrainfracError):
@@ -191,7 +191,8 @@ class MechanicsSolver:
         out["grain_strain_energy"] = self.grain_strain_energy()
         out["contact_strain_energy"] = self.contact_strain_energy()
         out["kinetic_energy"] = self.kinetic_energy()
-        work_in = out["boundary_work"] + out["platen_work"] + out["expansion_work"]
+        work_in = (out["boundary_work"] + out["platen_work"] + out["expansion_work"]
+                   + out["fluid_work"])
         stored = out["grain_strain_energy"] + out["contact_strain_energy"] + out["kinetic_energy"]
         dissipated = (out["damping_work"] + out["friction_work"]
                       + out["bond_energy_released"])
