@@ -188,7 +188,10 @@ def demo(
             f"breakdown pressure: HS-only {hs['breakdown_pressure_MPa']:.2f} MPa, hybrid "
             f"{hy['breakdown_pressure_MPa']:.2f} MPa; radial fractures: HS-only "
             f"{hs['n_radial_fractures']}, hybrid {hy['n_radial_fractures']}")
-    console.print(f"wrote {out}/hs-only and {out}/hybrid (figures/ in each)")
+    from grainfrac.viz.report import build_report
+
+    report_path = build_report([out / "hs-only", out / "hybrid"], out / "report.html")
+    console.print(f"wrote {out}/hs-only, {out}/hybrid (figures/ in each) and {report_path}")
 
 
 def _fmt(value, spec: str = ".2f") -> str:
