@@ -245,3 +245,15 @@ def test_breakdown_of_intact_slab(injection, tmp_path):
     assert drop > 0.05
     out = plot_well_pressure(t, p, n, tmp_path / "breakdown.png")
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and out.stat().st_size > 10_000
+
+
+def test_broken_contacts_keep_their_residual_aperture():
+    """Cracks and fissures close only to the broken residual aperture (when one is set)."""
+    from grainfrac.physics.flow import FluidProperties, hydraulic_aperture
+
+    opening = np.array([-1e-6, -1e-6, 5e-6, 1e-3])
+    bonded = np.array([True, False, False, False])
+    plain = hydraulic_aperture(opening, FluidProperties(), bonded)
+    np.testing.assert_allclose(plain, [2e-7, 2e-7, 5.2e-6, 3e-5])
+    rough = hydraulic_aperture(opening, FluidProperties(broken_residual_aperture=2e-6), bonded)
+    np.testing.assert_allclose(rough, [2e-7, 2e-6, 5.2e-6, 3e-5])

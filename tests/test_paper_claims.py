@@ -329,8 +329,8 @@ def pair_seed0(run_case) -> tuple[Measured, Measured]:
 
 # --------------------------------------------------------------------------- 1. SCDA alone
 
-_SCDA_FEW = ("measured (seed 0, radial fractures crossing the 10 mm circle = 2 well radii): "
-             "case1 3, case2 2, case3 1, case4 2; at a 7.5 mm circle 5, 4, 2, 4. The SCDA "
+_SCDA_FEW = ("measured (b3ecbe7, seed 0, radial fractures crossing the 10 mm circle = 2 well "
+             "radii): case1 3, case2 2, case3 1, case4 2; at a 7.5 mm circle 5, 4, 2, 4. The SCDA "
              "cracks stay within 17 mm of the well centre, so few reach 2 well radii")
 
 
@@ -396,9 +396,9 @@ def test_hs_breakdown_pressure_lowest_in_case1(hs_cases):
 
 
 @pytest.mark.xfail(strict=False, reason=(
-    "paper Fig. 12e: highest breakdown in Case 4. Measured at 90 ml/min, seed 0: case1 7.79, "
-    "case2 10.03, case3 12.01, case4 8.68 MPa (case 4 second lowest; case 3 highest, as "
-    "elastic Hubbert-Willis 3 sigma_min - sigma_max + T would also order them)"))
+    "paper Fig. 12e: highest breakdown in Case 4. Measured at 90 ml/min, seed 0 (b3ecbe7): "
+    "case1 7.79, case2 10.08, case3 12.03, case4 8.73 MPa (case 4 second lowest; case 3 "
+    "highest, the order of the elastic Hubbert-Willis 3 sigma_min - sigma_max + T)"))
 def test_hs_breakdown_pressure_highest_in_case4(hs_cases):
     bd = {case: m.breakdown_MPa for case, m in hs_cases.items()}
     print("\nHS breakdown (MPa): " + ", ".join(f"{c} {_fmt(v)}" for c, v in bd.items())
@@ -409,11 +409,22 @@ def test_hs_breakdown_pressure_highest_in_case4(hs_cases):
 # --------------------------------------------------------------------------- 3. hybrid
 
 
-def test_hybrid_has_no_abrupt_pressure_drop(pair_seed0):
+def test_hybrid_pressure_falls_less_after_breakdown(pair_seed0):
+    """No abrupt drop: a smaller fall of the well pressure within 1 ms after breakdown."""
     hs, hy = pair_seed0
     dh, dy = _drops(hs), _drops(hy)
     assert dh["drop_1ms_rel"] is not None and dy["drop_1ms_rel"] is not None
     assert dy["drop_1ms_rel"] < dh["drop_1ms_rel"], (dh, dy)
+
+
+def test_hybrid_pressure_falls_less_steeply(pair_seed0):
+    """No abrupt drop: a smaller steepest fall between fluid steps (0.01 ms) during injection.
+
+    A noisy measure (one pair of samples): at b3ecbe7 it holds for seed 0 (3.04 vs
+    3.44 MPa/ms) but not for seeds 1 and 2.
+    """
+    hs, hy = pair_seed0
+    dh, dy = _drops(hs), _drops(hy)
     assert dy["max_drop_rate_MPa_per_ms"] < dh["max_drop_rate_MPa_per_ms"], (dh, dy)
 
 
@@ -428,12 +439,13 @@ def test_hybrid_extends_more_radial_fractures_than_hs_only(pair_seed0):
     assert hy.radial.count > hs.radial.count
 
 
-@pytest.mark.xfail(strict=False, reason=(
-    "the hybrid's extra radial fractures are SCDA branches that injection leaves as they are. "
-    "Measured, seed 0: hybrid 2 extended (52 deg 16.8 -> 30.4 mm, 267 deg new 23.7 mm; "
-    "143 deg 11.3 and 224 deg 10.4 mm unchanged) vs HS-only 2 (52, 267 deg); seed 1: 3 vs 2; "
-    "seed 2: 2 vs 2. Paper Sect. 6: injection extended five fractures"))
 def test_hybrid_injection_extends_more_fractures_than_hs_only(pair_seed0):
+    """Stricter than the radial count: fractures that the injection itself created or lengthened.
+
+    Marginal: at seed 0 (b3ecbe7) the hybrid's third one is a new 10.7 mm branch at
+    346 deg, while its SCDA branches at 143 and 224 deg are not extended; on d08d122
+    it was 2 vs 2. Seed 2 gives 2 vs 2 (reported by test_hybrid_claims_over_seeds).
+    """
     hs, hy = pair_seed0
     n_hs, d_hs = hs.extended_by_injection()
     n_hy, d_hy = hy.extended_by_injection()

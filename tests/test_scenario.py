@@ -321,3 +321,16 @@ def test_unknown_scda_preset_is_named(tmp_path):
 
 def test_stage_kinds_listed():
     assert STAGE_KINDS == ("equilibrate", "scda", "drill_out", "inject")
+
+
+def test_broken_residual_aperture_option():
+    from grainfrac.errors import ConfigError
+    from grainfrac.io.config import validate as _validate
+
+    base = {"stages": [{"kind": "equilibrate"}]}
+    sc = _validate(Scenario, {**base, "fluid": {"broken_residual_aperture_m": 2e-6}})
+    assert sc.fluid.properties().broken_residual_aperture == 2e-6
+    assert _validate(Scenario, base).fluid.properties().broken_residual_aperture is None
+    with pytest.raises(ConfigError) as info:
+        _validate(Scenario, {**base, "fluid": {"broken_residual_aperture_m": 1e-3}})
+    assert info.value.field == "fluid.broken_residual_aperture_m"

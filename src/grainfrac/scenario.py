@@ -164,6 +164,9 @@ class FluidSpec(StrictModel):
     initial_aperture_m: float = Field(2.0e-7, gt=0, description="a0 [m]")
     residual_aperture_m: float = Field(2.0e-7, gt=0, description="a_res [m]")
     maximum_aperture_m: float = Field(3.0e-5, gt=0, description="a_max [m]")
+    broken_residual_aperture_m: float | None = Field(
+        None, gt=0, description="lower bound of the aperture of broken and fissured grain "
+        "boundaries [m]; default: residual_aperture_m (paper: one a_res for all)")
     permeable_sides: list[str] = Field(
         default_factory=lambda: list(SPECIMEN_SIDES["slab"]),
         description="specimen sides held at boundary_pressure_MPa",
@@ -180,6 +183,12 @@ class FluidSpec(StrictModel):
         if a_res > a0:
             raise ValueError(
                 f"residual_aperture_m: must be <= initial_aperture_m ({a0:g}) (got {a_res:g})"
+            )
+        broken = self.broken_residual_aperture_m
+        if broken is not None and not a_res <= broken < a_max:
+            raise ValueError(
+                f"broken_residual_aperture_m: must be in [residual_aperture_m, "
+                f"maximum_aperture_m) = [{a_res:g}, {a_max:g}) (got {broken:g})"
             )
         if a0 >= a_max:
             raise ValueError(
@@ -200,6 +209,7 @@ class FluidSpec(StrictModel):
             initial_aperture=self.initial_aperture_m,
             residual_aperture=self.residual_aperture_m,
             maximum_aperture=self.maximum_aperture_m,
+            broken_residual_aperture=self.broken_residual_aperture_m,
         )
 
     def fixed_pressures(self) -> dict[str, float]:

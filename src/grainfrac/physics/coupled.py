@@ -79,8 +79,9 @@ class HydroMechanicalSolver:
         self._apply_pressure()
 
     def aperture(self) -> np.ndarray:
+        n = self.assembly.mesh.n_contacts
         return flow.hydraulic_aperture(contact_opening(self.assembly, self.mechanics.u),
-                                       self.fluid)
+                                       self.fluid, self.mechanics.bonded[:n])
 
     @property
     def well_pressure(self) -> float:

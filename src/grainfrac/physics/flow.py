@@ -42,8 +42,11 @@ class FluidProperties:
     viscosity: float = 1.0e-3  # Pa s
     bulk_modulus: float = 2.0e9  # Pa
     initial_aperture: float = 2.0e-7  # a0 (m)
-    residual_aperture: float = 2.0e-7  # a_res (m)
+    residual_aperture: float = 2.0e-7  # a_res (m), bonded grain boundaries
     maximum_aperture: float = 3.0e-5  # a_max (m)
+    # A broken (or fissured) grain boundary does not close back to the intact
+    # aperture: its faces no longer match. Default None: same as a_res.
+    broken_residual_aperture: float | None = None
 
 
 @dataclass(frozen=True)
@@ -132,10 +135,17 @@ def build_flow_network(
     )
 
 
-def hydraulic_aperture(opening: np.ndarray, fluid: FluidProperties) -> np.ndarray:
-    """``clamp(a0 + opening, a_res, a_max)`` per sub-contact (m)."""
-    return np.clip(fluid.initial_aperture + opening, fluid.residual_aperture,
-                   fluid.maximum_aperture)
+def hydraulic_aperture(opening: np.ndarray, fluid: FluidProperties,
+                       bonded: np.ndarray | None = None) -> np.ndarray:
+    """``clamp(a0 + opening, a_res, a_max)`` per sub-contact (m).
+
+    Where ``bonded`` is False (cracks, fissures) the lower bound is the broken
+    residual aperture, if one is set.
+    """
+    lower = np.full(np.shape(opening), fluid.residual_aperture)
+    if bonded is not None and fluid.broken_residual_aperture is not None:
+        lower = np.where(bonded, lower, fluid.broken_residual_aperture)
+    return np.clip(fluid.initial_aperture + opening, lower, fluid.maximum_aperture)
 
 
 def pipe_conductance(network: FlowNetwork, aperture: np.ndarray,
