@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from grainfrac.verification import elastic, hydraulic
+from grainfrac.verification import elastic, hydraulic, kgd
 from grainfrac.verification.report import (
     ROW_KEYS,
     Comparison,
@@ -25,6 +25,7 @@ CASES: dict[str, Callable[..., list[Comparison]]] = {
     "kirsch": elastic.kirsch,
     "lame": elastic.lame,
     "cubic-law": hydraulic.cubic_law,
+    "kgd": kgd.kgd,
 }
 
 __all__ = ["CASES", "ROW_KEYS", "Comparison", "all_passed", "comparison_table",
