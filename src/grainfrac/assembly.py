@@ -20,7 +20,7 @@ from grainfrac.errors import ConfigError
 from grainfrac.geometry.meshing import GrainMesh, mesh_grains
 from grainfrac.geometry.specimens import SlabSpec, SpecimenShapeSpec, outline
 from grainfrac.geometry.tessellation import tessellate
-from grainfrac.io.config import StrictModel, read_toml, validate
+from grainfrac.io.config import StrictModel, read_toml, source_path, validate
 from grainfrac.units import MM
 
 # Named random streams, spawned from the seed in this order (never reorder).
@@ -88,14 +88,9 @@ class SpecimenConfig(StrictModel):
         """The rock recipe: inline, a preset name, or a TOML path relative to ``base_dir``."""
         if isinstance(self.rock, materials.RockRecipe):
             return self.rock
-        candidate = Path(self.rock)
-        if base_dir is not None and not candidate.is_absolute():
-            if (base_dir / candidate).is_file():
-                candidate = base_dir / candidate
         try:
-            if candidate.suffix == ".toml" or candidate.is_file():
-                return materials.load_recipe(candidate)
-            return materials.load_recipe(self.rock)
+            path = source_path(self.rock, base_dir)
+            return materials.load_recipe(path if path is not None else self.rock)
         except ConfigError as exc:
             if exc.field == "recipe":
                 raise ConfigError("rock", exc.message) from None

@@ -44,7 +44,7 @@ from grainfrac import materials
 from grainfrac.assembly import FissureSpec, GrainSpec, SpecimenConfig
 from grainfrac.errors import ConfigError
 from grainfrac.geometry.specimens import SlabSpec, SpecimenShapeSpec
-from grainfrac.io.config import StrictModel, read_toml, validate
+from grainfrac.io.config import StrictModel, read_toml, source_path, validate
 from grainfrac.io.files import write_toml
 from grainfrac.loading.insitu import STRESS_CASES
 from grainfrac.physics.flow import FluidProperties
@@ -262,13 +262,8 @@ class ScdaStage(StrictModel):
         """The SCDA material: inline, a preset name, or a TOML path relative to ``base_dir``."""
         if isinstance(self.scda, materials.ScdaRecipe):
             return self.scda
-        candidate = Path(self.scda)
-        if base_dir is not None and not candidate.is_absolute():
-            if (base_dir / candidate).is_file():
-                candidate = base_dir / candidate
-        if candidate.suffix == ".toml" or candidate.is_file():
-            return materials.load_scda(candidate)
-        return materials.load_scda(self.scda)
+        path = source_path(self.scda, base_dir)
+        return materials.load_scda(path if path is not None else self.scda)
 
     def velocity(self, t: float) -> float:
         """Expansion velocity (m/s) at time ``t`` (s) since the start of charging (Eq. 9)."""

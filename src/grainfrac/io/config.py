@@ -98,3 +98,16 @@ def read_toml(path: str | Path) -> dict[str, Any]:
 def load_toml(model: type[M], path: str | Path) -> M:
     """Load and validate a TOML file into ``model``."""
     return validate(model, read_toml(path))
+
+
+def source_path(source: str, base_dir: Path | None = None) -> Path | None:
+    """The file a config's ``preset-or-file`` value names, or None for a preset name.
+
+    A relative path is looked up beside the config file (``base_dir``) first.
+    """
+    candidate = Path(source)
+    if base_dir is not None and not candidate.is_absolute() and (base_dir / candidate).is_file():
+        candidate = base_dir / candidate
+    if candidate.suffix == ".toml" or candidate.is_file():
+        return candidate
+    return None
