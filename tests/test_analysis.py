@@ -391,3 +391,34 @@ def test_fractures_along_grain_boundaries(slab):
     assert fracture_tortuosity(x, y, connect_distance=link) == \
         pytest.approx(tortuosity(mesh.fluid_node_xy[path]), rel=1e-9)
     assert tortuosity(mesh.fluid_node_xy[path]) > 1.05
+
+
+def test_stress_field_functions_on_known_states():
+    """Uniaxial and Kirsch-like states: principal and hoop stresses by hand."""
+    import numpy as np
+
+    from grainfrac.analysis import (
+        major_principal_stress,
+        minor_principal_stress,
+        ring_mean_tangential_stress,
+        tangential_stress,
+    )
+
+    # Uniform sxx = -2, syy = -5 (tension positive): hoop = sxx sin^2 t + syy cos^2 t.
+    theta = np.radians(np.arange(0.0, 360.0, 15.0))
+    points = np.column_stack((np.cos(theta), np.sin(theta))) * 7.0
+    stress = np.tile([-2.0, -5.0, 0.0, 0.0], (len(theta), 1))
+    hoop = tangential_stress(points, stress, (0.0, 0.0))
+    np.testing.assert_allclose(hoop, -2.0 * np.sin(theta) ** 2 - 5.0 * np.cos(theta) ** 2,
+                               atol=1e-12)
+    np.testing.assert_allclose(minor_principal_stress(stress), -5.0)
+    np.testing.assert_allclose(major_principal_stress(stress), -2.0)
+    # Pure shear sxy = 3: principal stresses +-3.
+    shear = np.array([[0.0, 0.0, 3.0, 0.0]])
+    assert minor_principal_stress(shear)[0] == pytest.approx(-3.0)
+    assert major_principal_stress(shear)[0] == pytest.approx(3.0)
+    # The ring mean of the uniform field is the mean of sin^2/cos^2 weights: (-2 - 5) / 2.
+    weights = np.ones(len(theta))
+    mean = ring_mean_tangential_stress(points, stress, weights, (0.0, 0.0), 5.0, 10.0)
+    assert mean == pytest.approx(-3.5)
+    assert np.isnan(ring_mean_tangential_stress(points, stress, weights, (0.0, 0.0), 20, 30))

@@ -49,7 +49,9 @@ def test_run_directory_has_every_file(reference):
     for name in ("config.toml", "summary.json", "history.csv", "cracks.csv",
                  "snapshots/series.pvd", "snapshots/grains_0000.vtu",
                  "snapshots/contacts_0000.vtu", "figures/fractures.png",
-                 "figures/well_pressure.png", "checkpoint/state.npz"):
+                 "figures/well_pressure.png", "figures/pressures.png",
+                 "figures/displacement.png", "figures/minor_principal_stress.png",
+                 "figures/fluid_pressure.png", "checkpoint/state.npz"):
         assert (out / name).stat().st_size > 0, name
     on_disk = json.loads((out / "summary.json").read_text())
     for key in ("grainfrac_version", "seed", "wall_time_s", "n_grains", "n_elements",
@@ -64,6 +66,9 @@ def test_run_directory_has_every_file(reference):
     rows = list(csv.DictReader(open(out / "history.csv")))
     assert {r["stage"] for r in rows} == {"equilibrate", "inject"}
     assert float(rows[-1]["well_pressure_MPa"]) > 1.0
+    # Paper Fig. 10e: tangential stress near the well, compression positive; after
+    # in-situ loading of Case 2 it is compressive around the well.
+    assert float(rows[0]["tangential_stress_near_well_MPa"]) > 0.0
     print(f"\nsmall HS run: {summary['n_grains']} grains, peak well pressure "
           f"{summary['peak_well_pressure_MPa']:.2f} MPa, {summary['n_cracks']} cracks")
 

@@ -128,6 +128,23 @@ class Run:
             return 0.0
         return scda.expansive_pressure(self.solver, self.n_rock_contacts)
 
+    def tangential_stress_near_well(self) -> float:
+        """Mean hoop stress (Pa, compression positive as in paper Fig. 10e) of the rock
+        between one and two well radii from the centre; NaN without a borehole."""
+        outline = self.assembly.mesh.grains.outline
+        if outline.borehole_radius <= 0:
+            return float("nan")
+        from grainfrac.analysis.fields import ring_mean_tangential_stress
+
+        m = self.n_rock_elements
+        mesh = self.assembly.mesh
+        if not hasattr(self, "_centroids"):
+            self._centroids = mesh.node_xy[mesh.element_nodes].mean(axis=1)
+            self._areas = self.rock_model.element_area
+        r = outline.borehole_radius
+        return -ring_mean_tangential_stress(self._centroids, self.solver.stress[:m],
+                                            self._areas, outline.borehole_center, r, 2 * r)
+
     def well_pressure(self) -> float:
         return self.coupled.well_pressure if self.coupled is not None else 0.0
 
@@ -145,6 +162,7 @@ class Run:
             "n_cracks": int(rock.sum()),
             "n_tensile": int(np.count_nonzero(modes == 1)),
             "n_shear": int(np.count_nonzero(modes == 2)),
+            "tangential_stress_near_well_MPa": self.tangential_stress_near_well() / 1e6,
             "step": s.step_count,
         }
         self.state.history.append(row)
@@ -451,6 +469,27 @@ def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
     return out
 
 
+def _plot_final_fields(run: Run, figures: Path) -> None:
+    """Displacement, minor principal stress and (with fluid) the pressure in contacts."""
+    from grainfrac.viz.fields import (
+        plot_contact_pressure,
+        plot_displacement,
+        plot_minor_principal_stress,
+    )
+
+    s = run.solver
+    n, m = run.assembly.mesh.n_nodes, run.n_rock_elements
+    name = run.scenario.name
+    plot_displacement(run.assembly, s.u[:n], figures / "displacement.png",
+                      title=f"{name}: displacement at the end")
+    plot_minor_principal_stress(run.assembly, s.stress[:m], figures / "minor_principal_stress.png",
+                                title=f"{name}: minor principal stress at the end")
+    if run.coupled is not None:
+        plot_contact_pressure(run.assembly, s.contact_pressure[:run.n_rock_contacts],
+                              figures / "fluid_pressure.png",
+                              title=f"{name}: fluid pressure in grain boundaries (leak-off)")
+
+
 def run_scenario(scenario: Scenario, recipe: RockRecipe, out: str | Path, *,
                  base_dir: Path | None = None, resume: bool = False,
                  progress: Callable[[Progress], None] | None = None) -> dict[str, Any]:
@@ -500,5 +539,6 @@ def run_scenario(scenario: Scenario, recipe: RockRecipe, out: str | Path, *,
                            title=f"{scenario.name}: well pressure")
     plot_stage_history(run.state.history, figures / "pressures.png",
                        title=f"{scenario.name}: pressures and cracks by stage")
+    _plot_final_fields(run, figures)
     write_json(out / "summary.json", summary)
     return summary

@@ -12,6 +12,12 @@ from grainfrac.analysis.breakdown import (
     max_drop_rate,
     pressure_drop_after_peak,
 )
+from grainfrac.analysis.fields import (
+    major_principal_stress,
+    minor_principal_stress,
+    ring_mean_tangential_stress,
+    tangential_stress,
+)
 from grainfrac.analysis.fractures import (
     CONNECT_FACTOR,
     FracturePath,
@@ -28,6 +34,10 @@ from grainfrac.analysis.fractures import (
 )
 
 __all__ = [
+    "major_principal_stress",
+    "minor_principal_stress",
+    "ring_mean_tangential_stress",
+    "tangential_stress",
     "CONNECT_FACTOR",
     "BreakdownResult",
     "FracturePath",

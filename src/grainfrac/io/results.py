@@ -8,7 +8,8 @@ from typing import Any
 from grainfrac.io.files import write_csv
 
 HISTORY_COLUMNS = ["time_s", "stage", "well_pressure_MPa", "expansive_pressure_MPa",
-                   "injected_volume_ml", "n_cracks", "n_tensile", "n_shear", "step"]
+                   "injected_volume_ml", "n_cracks", "n_tensile", "n_shear",
+                   "tangential_stress_near_well_MPa", "step"]
 CRACK_COLUMNS = ["time_s", "x_mm", "y_mm", "mode", "contact_type", "energy_J"]
 
 

@@ -1,0 +1,49 @@
+"""Stress fields around the well (paper Fig. 10): minor principal and tangential stress.
+
+Element stresses come tension positive, (sxx, syy, sxy[, szz]) in Pa. The
+paper plots compression positive; these functions return tension-positive
+values and the callers (figures, history) state their sign convention.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def minor_principal_stress(stress: np.ndarray) -> np.ndarray:
+    """In-plane minor principal stress (Pa, tension positive: the most compressive value)."""
+    sxx, syy, sxy = stress[:, 0], stress[:, 1], stress[:, 2]
+    centre = 0.5 * (sxx + syy)
+    radius = np.hypot(0.5 * (sxx - syy), sxy)
+    return centre - radius
+
+
+def major_principal_stress(stress: np.ndarray) -> np.ndarray:
+    """In-plane major principal stress (Pa, tension positive: the most tensile value)."""
+    sxx, syy, sxy = stress[:, 0], stress[:, 1], stress[:, 2]
+    return 0.5 * (sxx + syy) + np.hypot(0.5 * (sxx - syy), sxy)
+
+
+def tangential_stress(points: np.ndarray, stress: np.ndarray,
+                      center: tuple[float, float] = (0.0, 0.0)) -> np.ndarray:
+    """Hoop stress (Pa, tension positive) about ``center`` at ``points``.
+
+    sigma_tt = sxx sin^2(t) + syy cos^2(t) - 2 sxy sin(t) cos(t), with t the
+    polar angle of the point about the centre.
+    """
+    d = np.asarray(points, dtype=float) - np.asarray(center, dtype=float)
+    t = np.arctan2(d[:, 1], d[:, 0])
+    s, c = np.sin(t), np.cos(t)
+    return stress[:, 0] * s * s + stress[:, 1] * c * c - 2.0 * stress[:, 2] * s * c
+
+
+def ring_mean_tangential_stress(points: np.ndarray, stress: np.ndarray, weights: np.ndarray,
+                                center: tuple[float, float], inner: float,
+                                outer: float) -> float:
+    """Weighted mean hoop stress (Pa, tension positive) of points with inner <= r < outer."""
+    r = np.hypot(*(np.asarray(points) - np.asarray(center)).T)
+    ring = (r >= inner) & (r < outer)
+    if not ring.any():
+        return float("nan")
+    hoop = tangential_stress(points[ring], stress[ring], center)
+    return float(np.average(hoop, weights=weights[ring]))
