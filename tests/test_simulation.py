@@ -165,3 +165,24 @@ def test_energy_figures_sum_to_the_mechanics_balance(reference):
     assert cracks == pytest.approx(released, rel=0.02)
     assert summary["energy_friction_J"] == pytest.approx(books["friction_work"], rel=1e-12)
     assert closure < 0.02
+
+
+def test_analysis_from_the_run_directory_alone_matches_the_summary(reference):
+    """Issue 7: the paper's measures come out of the run directory by definition."""
+    from grainfrac.analysis import analyse_run
+
+    out, summary = reference
+    again = analyse_run(out)
+    for key in ("breakdown_pressure_MPa", "breakdown_time_s", "n_cracks", "n_tensile_cracks",
+                "n_shear_cracks", "n_radial_fractures", "fracture_extent_mm", "tortuosity"):
+        if summary[key] is None:
+            assert again[key] is None, key
+        else:
+            assert again[key] == pytest.approx(summary[key], rel=1e-6), key
+    assert again["energy_tensile_J"] == pytest.approx(summary["energy_tensile_J"], rel=1e-9)
+    failed = {k: v for k, v in summary["contact_fraction_failed"].items() if v > 0}
+    assert again["contact_fraction_failed"] == pytest.approx(failed)
+    wider = analyse_run(out, radius_mm=15.0)
+    print(f"\nfrom CSVs: breakdown {again['breakdown_pressure_MPa']:.3f} MPa, "
+          f"{again['n_radial_fractures']} radial fractures at 10 mm, "
+          f"{wider['n_radial_fractures']} at 15 mm")

@@ -32,8 +32,10 @@ from grainfrac.analysis.fractures import (
     radial_fractures,
     tortuosity,
 )
+from grainfrac.analysis.rundir import analyse_run
 
 __all__ = [
+    "analyse_run",
     "major_principal_stress",
     "minor_principal_stress",
     "ring_mean_tangential_stress",
