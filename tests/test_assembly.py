@@ -15,7 +15,7 @@ import shapely
 import tomli_w
 
 import grainfrac.assembly
-from grainfrac.assembly import GrainAssembly, SpecimenConfig, build_assembly
+from grainfrac.assembly import GrainAssembly, SpecimenConfig, build_assembly, build_specimen
 from grainfrac.errors import ConfigError
 from grainfrac.io.config import validate
 from grainfrac.materials import load_recipe, pair_index
@@ -26,15 +26,11 @@ WEIBULL_MEAN = math.gamma(1.0 + 1.0 / 7.0)  # scale 1, shape 7 (paper Eq. 4)
 CLEAR_MM = 15.0
 
 
-def _build(data: dict) -> GrainAssembly:
-    cfg = validate(SpecimenConfig, data)
-    return build_assembly(cfg, cfg.recipe())
-
 
 @pytest.fixture(scope="module")
 def slab() -> GrainAssembly:
     """The default specimen (seed 0): 100 x 100 mm slab, 10 mm borehole, Strathbogie granite."""
-    return _build({})
+    return build_specimen({})
 
 
 @pytest.fixture(scope="module")
@@ -42,13 +38,14 @@ def fissured(slab) -> dict[float, GrainAssembly]:
     """The default slab with 0 %, 5 % and 15 % fissures outside 15 mm of the well."""
     out = {0.0: slab}
     for fraction in (0.05, 0.15):
-        out[fraction] = _build({"fissures": {"fraction": fraction, "clear_radius_mm": CLEAR_MM}})
+        fissures = {"fraction": fraction, "clear_radius_mm": CLEAR_MM}
+        out[fraction] = build_specimen({"fissures": fissures})
     return out
 
 
 @pytest.fixture(scope="module")
 def seed1() -> GrainAssembly:
-    return _build({"seed": 1})
+    return build_specimen({"seed": 1})
 
 
 def _interface_arrays(a: GrainAssembly) -> dict[str, np.ndarray]:
@@ -69,7 +66,7 @@ def _interface_arrays(a: GrainAssembly) -> dict[str, np.ndarray]:
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_volume_fractions_match_table2(slab, seed1, seed):
-    assembly = {0: slab, 1: seed1}.get(seed) or _build({"seed": seed})
+    assembly = {0: slab, 1: seed1}.get(seed) or build_specimen({"seed": seed})
     names = assembly.mineral_table.names
     realised = assembly.volume_fractions() * 100
     target = np.array([TABLE2_PERCENT[n] for n in names])
@@ -207,7 +204,7 @@ def test_fissure_fraction_keeps_grain_structure(fissured):
 
 def test_clear_radius_needs_a_borehole():
     with pytest.raises(ConfigError) as info:
-        _build({"specimen": {"shape": "disk"},
+        build_specimen({"specimen": {"shape": "disk"},
                 "fissures": {"fraction": 0.05, "clear_radius_mm": 5}})
     print(f"\n[disk + clear radius] {info.value}")
     assert info.value.field == "fissures.clear_radius_mm"
@@ -217,7 +214,7 @@ def test_clear_radius_needs_a_borehole():
 
 
 def test_same_seed_same_assembly_different_seed_differs(slab, seed1):
-    again = _build({"seed": 0})
+    again = build_specimen({"seed": 0})
     a, b, c = _interface_arrays(slab), _interface_arrays(again), _interface_arrays(seed1)
     equal = {k: np.array_equal(a[k], b[k]) for k in a}
     differs = {k: not (a[k].shape == c[k].shape and np.array_equal(a[k], c[k]))

@@ -51,3 +51,12 @@ def test_missing_file_is_a_clear_error(tmp_path):
                                  str(tmp_path / "o")])
     assert result.exit_code == 2
     assert "file not found" in result.output
+
+
+def test_flat_namespace_exposes_the_verbs():
+    import grainfrac
+
+    for name in ("build_specimen", "load_scenario", "run_scenario", "analyse_run",
+                 "build_report"):
+        assert callable(getattr(grainfrac, name)), name
+    assert grainfrac.build_specimen({"specimen": {"shape": "rectangle"}}).n_grains > 3

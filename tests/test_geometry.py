@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 import shapely
 
-from grainfrac.assembly import GrainAssembly, SpecimenConfig, build_assembly
+from grainfrac.assembly import GrainAssembly, SpecimenConfig, build_assembly, build_specimen
 from grainfrac.geometry.meshing import GrainMesh
 from grainfrac.io.config import validate
 
@@ -29,15 +29,11 @@ EXPECTED_SIDES = {
 MIN_ANGLE_DEG = 15.0
 
 
-def _build(data: dict) -> GrainAssembly:
-    cfg = validate(SpecimenConfig, data)
-    return build_assembly(cfg, cfg.recipe())
-
 
 @pytest.fixture(scope="module")
 def slab() -> GrainAssembly:
     """The default specimen: 100 x 100 mm slab, 10 mm borehole, grains 3-8 mm, zones 2 mm."""
-    return _build({})
+    return build_specimen({})
 
 
 @pytest.fixture(scope="module")
@@ -45,7 +41,7 @@ def shapes(slab) -> dict[str, GrainAssembly]:
     """One assembly of every specimen shape with its default dimensions (seed 0)."""
     out = {"slab": slab}
     for shape in SHAPES[1:]:
-        out[shape] = _build({"specimen": {"shape": shape}})
+        out[shape] = build_specimen({"specimen": {"shape": shape}})
     return out
 
 
@@ -68,7 +64,7 @@ def _side_lengths_mm(mesh: GrainMesh) -> dict[str, float]:
     ids=["default-3-8", "3-6", "3-9"],
 )
 def test_internal_edge_lengths_within_bounds(slab, grains, lo_mm, hi_mm):
-    assembly = slab if grains is None else _build({"grains": grains})
+    assembly = slab if grains is None else build_specimen({"grains": grains})
     lengths, cut = assembly.mesh.grains.edge_lengths()
     inner = lengths[~cut] / MM
     print(f"\n[edges {lo_mm:g}-{hi_mm:g} mm] grains={assembly.n_grains} internal edges="

@@ -260,3 +260,14 @@ def build_assembly(config: SpecimenConfig, recipe: materials.RockRecipe) -> Grai
         interface_cohesion=cohesion,
         interface_tensile_strength=tensile,
     )
+
+
+def build_specimen(config: dict | None = None) -> GrainAssembly:
+    """Validate a specimen config (the content of a specimen TOML, as a dict) and build it.
+
+    ``build_specimen()`` is the default slab; ``build_specimen({"specimen":
+    {"shape": "disk"}, "seed": 3})`` a Brazilian disk. Errors are one-line
+    :class:`~grainfrac.errors.ConfigError` raised before any compute.
+    """
+    cfg = validate(SpecimenConfig, config or {})
+    return build_assembly(cfg, cfg.recipe())
