@@ -13,7 +13,6 @@ naming the stage, step and time.
 from __future__ import annotations
 
 import json
-import math
 import time as wallclock
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -409,9 +408,6 @@ class Run:
         self.snapshots.entries = list(st.snapshots)
 
 
-def stage_count_steps(stage: Any) -> int:  # pragma: no cover - used by progress displays
-    return math.ceil(getattr(stage, "relax_steps", 0) / RELAX_CHUNK)
-
 
 # -- entry points ---------------------------------------------------------------------
 def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
@@ -436,6 +432,7 @@ def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
         "n_elements": a.mesh.n_elements,
         "n_contacts": a.mesh.n_contacts,
         "stages": list(run.scenario.stage_kinds),
+        "stage_times_s": run.state.stage_times,
         "breakdown_pressure_MPa": None,
         "breakdown_time_s": None,
         "peak_well_pressure_MPa": None,
