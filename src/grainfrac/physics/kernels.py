@@ -264,7 +264,8 @@ def run_steps(
     """Advance ``n_steps`` explicit steps without returning to Python.
 
     ``energies`` accumulates [external work, damping work, friction work,
-    released bond energy, platen work, expansion work, fluid work]. The eigenstrain grows
+    released bond energy, platen work, expansion work, fluid work, energy removed
+    (not touched here)]. The eigenstrain grows
     by ``eigenstrain_rate dt`` per step; the work it does on the body is
     ``-A t (sxx + syy) d(eigenstrain)``. Broken contacts are appended to
     ``failed_contact`` / ``failed_step`` (step index within this call).

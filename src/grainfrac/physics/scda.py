@@ -197,6 +197,7 @@ def insert_scda(rock_solver: MechanicsSolver, scda_model: MechanicalModel, fill:
 
 
 def plug_elements(solver: MechanicsSolver, n_rock_elements: int) -> np.ndarray:
+    """Element ids of the plug in a solver on the SCDA model."""
     return np.arange(n_rock_elements, len(solver.model.element_nodes))
 
 
@@ -214,13 +215,37 @@ def expansive_pressure(solver: MechanicsSolver, n_rock_contacts: int) -> float:
     return float(np.sum(solver.sigma_n[wall] * area) / np.sum(area))
 
 
+def plug_stored_energy(scda_solver: MechanicsSolver, n_rock_nodes: int,
+                       n_rock_contacts: int) -> float:
+    """Elastic and kinetic energy (J) held by the plug and its wall contacts."""
+    from grainfrac.physics import kernels
+
+    m = scda_solver.model
+    plug = np.flatnonzero(m.element_nodes.min(axis=1) >= n_rock_nodes)
+    strain = kernels.element_strain_energy(
+        scda_solver.u, m.element_nodes[plug], m.dndx[plug], m.dndy[plug], m.element_area[plug],
+        m.lam[plug], m.mu[plug], m.thickness, scda_solver.eigenstrain[plug],
+        scda_solver.initial_strain[plug])
+    wall = slice(n_rock_contacts, None)
+    contact = kernels.contact_strain_energy(
+        scda_solver.sigma_n[wall], scda_solver.tau[wall], m.normal_stiffness[wall],
+        m.shear_stiffness[wall], m.contact_area[wall])
+    kinetic = 0.5 * float(np.sum(m.mass[n_rock_nodes:, None] * scda_solver.v[n_rock_nodes:] ** 2))
+    return float(strain) + contact + kinetic
+
+
 def drill_out(scda_solver: MechanicsSolver, rock_model: MechanicalModel) -> MechanicsSolver:
-    """Remove the plug: a solver on the rock model that keeps the rock state and its cracks."""
+    """Remove the plug: a solver on the rock model that keeps the rock state and its cracks.
+
+    The energy the plug and its wall contacts held leaves with them; it is
+    booked as ``energy_removed`` so the energy balance still closes.
+    """
     n_rock = rock_model.n_nodes
     c_rock = rock_model.n_contacts
     s = MechanicsSolver(rock_model, damping=scda_solver.damping,
                         velocity_limit=scda_solver.velocity_limit)
     _copy_state(scda_solver, s, n_rock, c_rock)
+    s.energies[7] += plug_stored_energy(scda_solver, n_rock, c_rock)
     ld = scda_solver.loads
     s.loads.external[:] = ld.external[:n_rock]
     s.loads.fixed[:] = ld.fixed[:n_rock]
@@ -231,13 +256,12 @@ def drill_out(scda_solver: MechanicsSolver, rock_model: MechanicalModel) -> Mech
 
 def _copy_state(src: MechanicsSolver, dst: MechanicsSolver, n_nodes: int, n_contacts: int
                 ) -> None:
-    """Copy the leading rock part of a solver's state (velocities start from rest)."""
+    """Copy the leading rock part of a solver's state into another model's solver."""
     dst.u[:n_nodes] = src.u[:n_nodes]
-    n_el = min(len(src.stress), len(dst.stress))
-    rock_el = min(n_el, len(src.model.element_nodes), len(dst.model.element_nodes))
-    dst.stress[:rock_el] = src.stress[:rock_el]
-    dst.eigenstrain[:rock_el] = src.eigenstrain[:rock_el]
-    dst.initial_strain[:rock_el] = src.initial_strain[:rock_el]
+    dst.v[:n_nodes] = src.v[:n_nodes]
+    rock_el = min(len(src.stress), len(dst.stress))  # the plug's elements come after
+    for name in ("stress", "eigenstrain", "initial_strain"):
+        getattr(dst, name)[:rock_el] = getattr(src, name)[:rock_el]
     for name in ("bonded", "status", "sigma_n", "tau", "released", "contact_pressure",
                  "opening_offset"):
         getattr(dst, name)[:n_contacts] = getattr(src, name)[:n_contacts]

@@ -17,7 +17,7 @@ from grainfrac.physics import kernels
 from grainfrac.physics.model import MechanicalModel
 
 ENERGY_KEYS = ("boundary_work", "damping_work", "friction_work", "bond_energy_released",
-               "platen_work", "expansion_work", "fluid_work")
+               "platen_work", "expansion_work", "fluid_work", "energy_removed")
 
 
 class NumericalBlowUp(GrainfracError):
@@ -194,8 +194,9 @@ class MechanicsSolver:
         work_in = (out["boundary_work"] + out["platen_work"] + out["expansion_work"]
                    + out["fluid_work"])
         stored = out["grain_strain_energy"] + out["contact_strain_energy"] + out["kinetic_energy"]
+        # energy_removed: stored energy that left with a removed body (a drilled-out plug).
         dissipated = (out["damping_work"] + out["friction_work"]
-                      + out["bond_energy_released"])
+                      + out["bond_energy_released"] + out["energy_removed"])
         out["work_in"] = work_in
         out["residual"] = work_in - stored - dissipated
         return out
