@@ -240,3 +240,43 @@ def report(
     except GrainfracError as exc:
         _fail(exc)
     console.print(f"wrote {path}")
+
+
+# --------------------------------------------------------------------------- sweeps, studies
+
+
+@app.command()
+def sweep(
+    sweep_file: Annotated[Path, typer.Argument(
+        help="Sweep TOML: base scenario, parameters to vary, realisations per point.")],
+    out: Annotated[Path, typer.Option("--out", help="Sweep directory (runs/, runs.csv, "
+                                      "stats.csv, sweep.json).")],
+    scheduler: Annotated[str | None, typer.Option(
+        "--scheduler", help="Address of a running Dask scheduler, e.g. tcp://host:8786 "
+        "(default: a local cluster).")] = None,
+    workers: Annotated[int | None, typer.Option(
+        "--workers", help="Workers of the local cluster (default: one per core).")] = None,
+) -> None:
+    """Run a parameter sweep / ensemble on Dask; mean, std and 95 % CI per point.
+
+    Runs already done in --out are skipped; exit code 1 if any run failed.
+    """
+    from grainfrac.studies.progress import sweep_progress, sweep_table
+    from grainfrac.studies.sweep import load_sweep, run_sweep
+
+    try:
+        plan = load_sweep(sweep_file)
+        with sweep_progress(console) as show:
+            result = run_sweep(plan, out, scheduler=scheduler, n_workers=workers,
+                               progress=show)
+    except GrainfracError as exc:
+        _fail(exc)
+    console.print(sweep_table(result))
+    console.print(f"{result.computed} run(s) computed, {result.skipped} already done, "
+                  f"{len(result.failures)} failed in {result.wall_time_s:.1f} s; wrote "
+                  + ", ".join(str(p) for p in result.files))
+    for run_dir, error in result.failures.items():
+        err_console.print(f"[bold red]failed:[/] {out / run_dir}: {error}", highlight=False,
+                          soft_wrap=True)
+    if result.failures:
+        raise typer.Exit(code=1)
