@@ -280,3 +280,57 @@ def sweep(
                           soft_wrap=True)
     if result.failures:
         raise typer.Exit(code=1)
+
+
+@app.command()
+def study(
+    name: Annotated[str, typer.Argument(help="Study matrix: paper (all studies of the paper).")],
+    out: Annotated[Path, typer.Option("--out", help="Study directory (one sweep per study, "
+                                      "report.md, report.html, claims.csv).")],
+    realisations: Annotated[int, typer.Option(
+        "--realisations", min=1, help="Grain realisations per point (seeds 0..N-1).")] = 10,
+    only: Annotated[list[str] | None, typer.Option(
+        "--only", help="Run only this study (repeatable): scda-confinement, hs-confinement, "
+        "grain-size, fissures, injection-rate, hybrid, lab-hs.")] = None,
+    examples: Annotated[Path | None, typer.Option(
+        "--examples", help="Directory of the example scenarios (default: the checkout's "
+        "examples/).")] = None,
+    scheduler: Annotated[str | None, typer.Option(
+        "--scheduler", help="Address of a running Dask scheduler (default: a local "
+        "cluster).")] = None,
+    workers: Annotated[int | None, typer.Option(
+        "--workers", help="Workers of the local cluster (default: one per core).")] = None,
+) -> None:
+    """Run the paper's study matrix as sweeps and write the reproduction report.
+
+    Runs already done in --out are skipped; exit code 1 if any run failed.
+    """
+    from grainfrac.studies.progress import sweep_progress
+    from grainfrac.studies.study import run_paper_study
+
+    if name != "paper":
+        _fail(ValueError(f"unknown study {name!r}; known: paper"))
+    try:
+        with sweep_progress(console) as show:
+            done = run_paper_study(out, realisations=realisations, only=only,
+                                   examples=examples, scheduler=scheduler, n_workers=workers,
+                                   progress=show)
+    except GrainfracError as exc:
+        _fail(exc)
+    table = Table(title=f"paper claims ({realisations} realisation(s) per point)")
+    for col in ("study", "claim", "ours", "verdict"):
+        table.add_column(col, overflow="fold")
+    colour = {"holds": "green", "does not hold": "red", "inconclusive": "yellow"}
+    for o in done.outcomes:
+        for v in o.verdicts:
+            style = colour.get(v.verdict, "dim")
+            table.add_row(o.study.name, v.claim.text, v.estimate,
+                          f"[{style}]{v.verdict}[/]")
+    console.print(table)
+    console.print(f"{done.runs_computed} run(s) computed in {done.wall_time_s:.0f} s; wrote "
+                  f"{out}/report.html, report.md, claims.csv and one sweep directory per study")
+    for run_dir, error in done.failures.items():
+        err_console.print(f"[bold red]failed:[/] {run_dir}: {error}", highlight=False,
+                          soft_wrap=True)
+    if done.failures:
+        raise typer.Exit(code=1)
