@@ -253,3 +253,36 @@ def test_points_paths_and_stress_overrides():
     assert plan.point("fissured").runs[0].scenario["fissures"]["clear_radius_mm"] == 8.0
     assert sweep_mod.SweepConfig.model_validate(
         {"base": "x.toml", "realisations": 3}).n_realisations == 3
+
+
+def test_a_failing_run_is_recorded_and_the_sweep_goes_on(client, tmp_path, monkeypatch):
+    from grainfrac import simulation
+    from grainfrac.studies.sweep import PlannedRun, SweepPlan, SweepPoint, collect, execute_run
+
+    plan = plan_sweep({**SWEEP, "parameters": [{"path": "seed", "values": [7]}],
+                       "realisations": 1})
+    (run,) = plan.runs
+    assert (run.point, run.seed) == ("seed-7", 7)
+    # A physics failure (a GrainfracError) is data: failed.json, status "failed".
+    with monkeypatch.context() as m:
+        def blow_up(*args, **kwargs):
+            raise simulation.RunFailed("stage 2 (inject) stopped: non-finite velocity")
+        m.setattr(simulation, "run_scenario", blow_up)
+        assert execute_run(str(tmp_path / run.rel_dir), run.scenario)["status"] == "failed"
+    failed = collect(plan, tmp_path)
+    assert failed.runs[0]["status"] == "failed" and failed.stat("seed-7", "n_cracks")["n"] == 0
+    assert "non-finite" in (tmp_path / run.rel_dir / "failed.json").read_text()
+    # A re-run computes it for real and clears the failure.
+    assert execute_run(str(tmp_path / run.rel_dir), run.scenario)["status"] == "done"
+    assert collect(plan, tmp_path).runs[0]["status"] == "done"
+    assert not (tmp_path / run.rel_dir / "failed.json").exists()
+    # A task that raises on every try (here: a scenario that does not validate on the
+    # worker) is retried, then reported as failed while the other runs complete.
+    broken = PlannedRun("broken", 0, 0, {**run.scenario, "stages": []})
+    bad_plan = SweepPlan("bad", (SweepPoint("seed-7", {}, (run,)),
+                                 SweepPoint("broken", {}, (broken,))), (), retries=1)
+    result = run_sweep(bad_plan, tmp_path, scheduler=client)
+    assert (result.skipped, result.computed) == (1, 0)
+    assert list(result.failures) == ["runs/broken/r0"] and "stages" in \
+        result.failures["runs/broken/r0"]
+    assert [r["status"] for r in result.runs] == ["done", "failed"]

@@ -838,8 +838,8 @@ def flatten_summary(summary: dict[str, Any]) -> dict[str, Any]:
 
 
 def _order_quantities(found: list[str]) -> list[str]:
-    known = [q for q in SCALAR_QUANTITIES if q in found]
-    return known + [q for q in found if q not in known]
+    """Every scalar summary key (even with no finished run yet), then grouped entries."""
+    return list(SCALAR_QUANTITIES) + [q for q in found if q not in SCALAR_QUANTITIES]
 
 
 def _cell(value: Any) -> Any:
