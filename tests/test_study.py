@@ -228,3 +228,21 @@ def test_reproduction_report_from_real_runs(tmp_path, monkeypatch):
     stats_rows = list(csv.DictReader(open(out / study.name / "stats.csv")))
     c1_row = next(r for r in stats_rows if r["point"] == "c1" and r["quantity"] == "n_cracks")
     assert float(c1_row["mean"]) == pytest.approx(np.mean(c1))
+
+
+@pytest.mark.slow
+def test_cli_study_paper_lab_smoke(tmp_path):
+    """`grainfrac study paper --only lab-hs --realisations 1`: a real run, report and verdict."""
+    out = tmp_path / "study"
+    result = CliRunner().invoke(app, ["study", "paper", "--out", str(out), "--only", "lab-hs",
+                                      "--realisations", "1", "--workers", "1"])
+    print(result.output)
+    assert result.exit_code == 0, result.output
+    runs = list(csv.DictReader(open(out / "lab-hs" / "runs.csv")))
+    assert [(r["point"], r["status"]) for r in runs] == [("lab-5mlmin", "done")]
+    claims = list(csv.DictReader(open(out / "claims.csv")))
+    assert [(c["claim"], c["verdict"]) for c in claims] == [("lab-breakdown", "undetermined")]
+    bd = runs[0]["breakdown_pressure_MPa"]
+    assert ("no 95 % CI" in claims[0]["reason"]) if bd else ("null" in claims[0]["reason"])
+    assert "lab-hs" in result.output and "undetermined" in result.output
+    assert (out / "report.html").stat().st_size > 10_000
