@@ -436,9 +436,15 @@ def _axis_points(config: SweepConfig) -> list[tuple[str, dict[str, Any], list[st
 
 
 def _field_for(exc: ConfigError, overrides: dict[str, Any], fields: list[str]) -> str | None:
+    """The sweep field whose value caused ``exc``: the same path, or a sibling of it
+    (a check across fields such as ``grains.min_edge_mm < max_edge_mm``)."""
     for path, where in zip(overrides, fields, strict=True):
         if exc.field == path or exc.field.startswith(path + ".") or path.startswith(
                 exc.field + "."):
+            return where
+    parent = exc.field.rpartition(".")[0]
+    for path, where in zip(overrides, fields, strict=True):
+        if parent and path.rpartition(".")[0] == parent:
             return where
     return None
 
@@ -505,7 +511,8 @@ def plan_sweep(config: SweepConfig | dict[str, Any], base_dir: str | Path | None
                                                                   base.base_dir))
                          for k, seed in enumerate(seeds))
         except ConfigError as exc:
-            where = _field_for(exc, overrides, fields)
+            where = _field_for(exc, {**overrides, **config.set},
+                               fields + [f"set.{path}" for path in config.set])
             if where is None:
                 raise ConfigError(exc.field, f"{exc.message} (sweep point {pid})") from None
             raise ConfigError(where, f"{exc.field}: {exc.message}") from None
