@@ -258,8 +258,13 @@ def build_reproduction_report(outcomes: Sequence[StudyOutcome], out: str | Path,
     header = (f"{PAPER}. grainfrac {grainfrac.__version__}; {realisations} realisation(s) "
               f"per point (seeds = each scenario's seed + 0..{realisations - 1}); "
               f"{n_runs} runs in {len(outcomes)} studies")
+    run_time = sum(r["wall_time_s"] or 0.0 for o in outcomes for r in o.result.runs)
+    header += f"; summed run time {run_time:.0f} s"
     if wall_time_s is not None:
-        header += f"; this invocation took {wall_time_s:.0f} s"
+        computed = sum(o.result.computed for o in outcomes)
+        header += (f"; this invocation computed {computed} run(s) in {wall_time_s:.0f} s "
+                   "(the others were done already)" if computed < n_runs else
+                   f"; this invocation computed them in {wall_time_s:.0f} s")
     header += "."
     rows = [v.as_row(o.study.name) for o in outcomes for v in o.verdicts]
     columns = ["study", "claim", "quantity", "statement", "paper", "verdict", "estimate",
