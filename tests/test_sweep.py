@@ -290,3 +290,16 @@ def test_a_failing_run_is_recorded_and_the_sweep_goes_on(client, tmp_path, monke
     assert list(result.failures) == ["runs/broken/r0"] and "stages" in \
         result.failures["runs/broken/r0"]
     assert [r["status"] for r in result.runs] == ["done", "failed"]
+
+
+def test_example_sweeps_plan():
+    examples = sorted((Path(__file__).resolve().parents[1] / "examples" / "sweeps").glob(
+        "*.toml"))
+    assert examples
+    for path in examples:
+        plan = load_sweep(path)
+        assert plan.points and all(len(p.runs) >= 2 for p in plan.points), path.name
+    rate = load_sweep(examples[0].parent / "hs-rate-case2.toml")
+    assert [p.id for p in rate.points] == ["18mlmin", "42mlmin", "66mlmin"]
+    assert [round(p.runs[0].scenario["stages"][1]["duration_ms"], 1) for p in rate.points] == [
+        40.0, 17.1, 10.9]
