@@ -153,6 +153,18 @@ class WeibullSpec(StrictModel):
     enabled: bool = Field(default=True, description="false: no scatter (homogeneous checks)")
 
 
+class HydraulicSpec(StrictModel):
+    """Hydraulic property of the intact grain boundaries (paper Sect. 3.2, Table 4).
+
+    ``initial_aperture_m`` is a0, the aperture of an unloaded intact grain
+    boundary, calibrated to the intact permeability by the constant-head test.
+    Scenarios use it unless their ``fluid.initial_aperture_m`` is given.
+    """
+
+    initial_aperture_m: float = Field(default=2.0e-7, gt=0, lt=3.0e-5,
+                                      description="initial hydraulic aperture a0 [m]")
+
+
 def _pair_error(key: str, message: str, value: Any) -> ValidationError:
     """A ValidationError located at ``<field>.<key>`` (pydantic prefixes the field)."""
     return ValidationError.from_exception_data(
@@ -177,6 +189,8 @@ class RockRecipe(StrictModel):
     minerals: list[Mineral] = Field(min_length=1, description="mineral phases")
     contacts: dict[str, ContactProperties] = Field(description="contact properties per pair")
     weibull: WeibullSpec = Field(default_factory=WeibullSpec, description="Weibull draws")
+    hydraulic: HydraulicSpec = Field(default_factory=HydraulicSpec,
+                                     description="intact grain-boundary aperture")
 
     @field_validator("minerals")
     @classmethod

@@ -1,0 +1,302 @@
+"""Automatic calibration of micro-parameters to laboratory targets (paper Sect. 3).
+
+The paper adjusted Table 2 by hand until the virtual UCS and BTS tests matched
+the laboratory. Here the same virtual tests drive a root finder.
+
+Unknowns are scale factors on the starting recipe, each paired with the
+laboratory quantity it governs most:
+
+=================  ============================================  ==================
+factor             multiplies                                    target
+=================  ============================================  ==================
+``stiffness``      grain Young's moduli, contact kn and ks       Young's modulus E
+``shear_ratio``    contact ks (so ks / kn)                       Poisson's ratio nu
+``strength``       contact tensile strengths and cohesions       BTS
+``friction``       tangent of the contact friction angles        UCS
+=================  ============================================  ==================
+
+Why these pairs (measured on Table 2, seed 0): the Brazilian peak is half
+tensile, half shear failure (halving sigma_T lowers it 32 %, halving c 33 %),
+so tension and cohesion scale together; friction strengthens the contacts that
+are pressed together, which the UCS test has and the BTS test hardly.
+
+In log space (residual ``log(measured / target)`` of the mean over the grain
+realisations, unknown ``log(factor)``) this pairing makes the Jacobian close to
+the identity (nu falls as ks rises, so its unknown enters with a minus sign),
+and Powell's hybrid method (:func:`scipy.optimize.root`, ``hybr``, MINPACK)
+starts from a forward-difference Jacobian (10 % steps: one evaluation per
+factor) and then updates it from each new evaluation (Broyden), inside a trust
+region. A pure Broyden start from the identity diverged (measured: the BTS
+rose 355 % on its third step) because the couplings are strong. The permeability
+``k ~ a0^3`` of the constant-head test is exact on an intact assembly, so a0
+is solved in closed form. K_IC (NSCB) is measured with the final recipe and
+reported against its target, as the paper did (its K_IC verified, not
+calibrated, the model).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from pydantic import Field
+
+from grainfrac import materials
+from grainfrac.assembly import GrainSpec
+from grainfrac.errors import GrainfracError
+from grainfrac.io.config import StrictModel, read_toml, source_path, validate
+from grainfrac.io.files import write_csv, write_json, write_text, write_toml
+from grainfrac.labtests.config import LAB_GRAINS, LabTestConfig
+
+FACTORS = ("stiffness", "shear_ratio", "strength", "friction")
+# Target quantity, the lab test that measures it, and the sign of d log(target) / d log(factor).
+PAIRING = {
+    "stiffness": ("youngs_modulus_GPa", "ucs", +1.0),
+    "shear_ratio": ("poisson_ratio", "ucs", -1.0),
+    "strength": ("bts_MPa", "bts", +1.0),
+    "friction": ("ucs_MPa", "ucs", +1.0),
+}
+REPORTED = ("ucs_MPa", "bts_MPa", "kic_MPa_sqrt_m", "youngs_modulus_GPa", "poisson_ratio",
+            "permeability_m2")
+LABELS = {"ucs_MPa": "UCS (MPa)", "bts_MPa": "BTS (MPa)", "kic_MPa_sqrt_m": "K_IC (MPa m^0.5)",
+          "youngs_modulus_GPa": "E (GPa)", "poisson_ratio": "nu",
+          "permeability_m2": "permeability (m2)"}
+
+
+class Targets(StrictModel):
+    """Laboratory values to reproduce (defaults: paper Table 3 and Sect. 3.2)."""
+
+    ucs_MPa: float = Field(120.94, gt=0)
+    bts_MPa: float = Field(6.38, gt=0)
+    kic_MPa_sqrt_m: float = Field(1.35, gt=0)
+    youngs_modulus_GPa: float = Field(17.13, gt=0)
+    poisson_ratio: float = Field(0.24, gt=0, lt=0.5)
+    permeability_m2: float = Field(1.0e-19, gt=0)
+
+
+class CalibrationConfig(StrictModel):
+    """``grainfrac calibrate TARGETS.toml``: what to match, from where, how hard to try."""
+
+    name: str = Field("calibrated-rock", description="name of the calibrated recipe")
+    rock: str | materials.RockRecipe = Field("strathbogie-granite", description="start recipe")
+    targets: Targets = Field(default_factory=Targets)
+    seeds: list[int] = Field(default_factory=lambda: [0, 1, 2], min_length=1,
+                             description="grain realisations averaged per evaluation")
+    grains: GrainSpec = Field(default_factory=lambda: GrainSpec(**LAB_GRAINS))
+    tolerance: float = Field(0.02, gt=0, lt=0.5,
+                             description="stop when every calibrated mean is this close")
+    max_evaluations: int = Field(16, ge=1, le=200)
+    workers: int | None = Field(None, ge=1, le=64, description="processes (default: cores)")
+
+    def recipe(self, base_dir: Path | None = None) -> materials.RockRecipe:
+        if isinstance(self.rock, materials.RockRecipe):
+            return self.rock
+        path = source_path(self.rock, base_dir)
+        return materials.load_recipe(path if path is not None else self.rock)
+
+
+def load_calibration_config(path: str | Path) -> tuple[CalibrationConfig, materials.RockRecipe]:
+    """Read a TARGETS.toml file and its starting recipe (one-line error on bad input)."""
+    path = Path(path)
+    config = validate(CalibrationConfig, read_toml(path))
+    return config, config.recipe(path.parent)
+
+
+def scaled_recipe(recipe: materials.RockRecipe, factors: dict[str, float], *,
+                  initial_aperture_m: float | None = None,
+                  name: str | None = None) -> materials.RockRecipe:
+    """``recipe`` with the calibration factors applied (see the module table)."""
+    data = recipe.model_dump(mode="json")
+    f = {k: float(factors.get(k, 1.0)) for k in FACTORS}
+    for mineral in data["minerals"]:
+        mineral["youngs_modulus_GPa"] *= f["stiffness"]
+    for contact in data["contacts"].values():
+        contact["normal_stiffness_GPa_per_m"] *= f["stiffness"]
+        contact["shear_stiffness_GPa_per_m"] *= f["stiffness"] * f["shear_ratio"]
+        contact["tensile_strength_MPa"] *= f["strength"]
+        contact["cohesion_MPa"] *= f["strength"]
+        tan_phi = f["friction"] * math.tan(math.radians(contact["friction_angle_deg"]))
+        contact["friction_angle_deg"] = math.degrees(math.atan(tan_phi))
+    if initial_aperture_m is not None:
+        data["hydraulic"]["initial_aperture_m"] = initial_aperture_m
+    if name is not None:
+        data["name"] = name
+    return validate(materials.RockRecipe, data)
+
+
+def _lab_value(job: tuple[str, int, dict, dict]) -> dict[str, Any]:
+    """One lab test (worker process): returns its summary."""
+    from grainfrac.labtests.run import measure
+
+    test, seed, recipe_data, grains = job
+    recipe = materials.RockRecipe(**recipe_data)
+    config = LabTestConfig(test=test, seed=seed, rock=recipe, grains=GrainSpec(**grains))
+    return measure(config, recipe=recipe)["summary"]
+
+
+class LabBench:
+    """Runs lab tests over the realisations, in parallel processes; means per quantity."""
+
+    def __init__(self, seeds: list[int], grains: GrainSpec, workers: int | None = None):
+        self.seeds = list(seeds)
+        self.grains = grains.model_dump()
+        self.workers = workers or os.cpu_count() or 1
+
+    def measure(self, recipe: materials.RockRecipe, tests: tuple[str, ...],
+                ) -> tuple[dict[str, float], list[dict[str, Any]]]:
+        """Mean of each reported quantity over the seeds, and every test's summary."""
+        data = recipe.model_dump(mode="json")
+        jobs = [(t, s, data, self.grains) for t in tests for s in self.seeds]
+        if self.workers > 1 and len(jobs) > 1:
+            with ProcessPoolExecutor(max_workers=min(self.workers, len(jobs))) as pool:
+                runs = list(pool.map(_lab_value, jobs))
+        else:
+            runs = [_lab_value(j) for j in jobs]
+        means = {}
+        for key in REPORTED:
+            values = [r[key] for r in runs if key in r and r[key] is not None]
+            if values:
+                means[key] = float(np.mean(values))
+        return means, runs
+
+
+def calibrate(config: CalibrationConfig, recipe: materials.RockRecipe, *,
+              log: Callable[[str], None] | None = None) -> dict[str, Any]:
+    """Find the factors and a0 that reproduce the targets; return the result record.
+
+    The record holds ``recipe`` (calibrated), ``factors``, ``initial_aperture_m``,
+    ``history`` (one row per evaluation), ``achieved`` (means of the final
+    recipe, with K_IC and permeability), ``per_seed`` and ``converged``.
+    """
+    from scipy.optimize import root
+
+    say = log or (lambda _msg: None)
+    bench = LabBench(config.seeds, config.grains, config.workers)
+    targets = config.targets.model_dump()
+    history: list[dict[str, Any]] = []
+
+    def factors_of(x: np.ndarray) -> dict[str, float]:
+        return {name: math.exp(PAIRING[name][2] * xi) for name, xi in zip(FACTORS, x,
+                                                                           strict=True)}
+
+    seen: dict[tuple[float, ...], np.ndarray] = {}
+
+    def residual(x: np.ndarray) -> np.ndarray:
+        key = tuple(np.round(x, 12))
+        if key in seen:  # MINPACK asks for the starting point twice
+            return seen[key]
+        if len(history) >= config.max_evaluations:
+            raise _Stop
+        factors = factors_of(x)
+        start = time.perf_counter()
+        means, _ = bench.measure(scaled_recipe(recipe, factors), ("ucs", "bts"))
+        r = np.array([math.log(means[PAIRING[n][0]] / targets[PAIRING[n][0]]) for n in FACTORS])
+        if not np.all(np.isfinite(r)):
+            raise GrainfracError(f"calibration: a lab test gave no value at factors {factors}")
+        history.append({"evaluation": len(history) + 1, **factors, **means,
+                        "max_error": float(np.max(np.abs(np.expm1(r)))),
+                        "wall_time_s": time.perf_counter() - start})
+        say(f"evaluation {len(history)}: " + ", ".join(
+            f"{PAIRING[n][0]} {means[PAIRING[n][0]]:.4g} ({math.expm1(ri):+.1%})"
+            for n, ri in zip(FACTORS, r, strict=True)))
+        if history[-1]["max_error"] <= config.tolerance:
+            raise _Stop
+        seen[key] = r
+        return r
+
+    try:
+        root(residual, np.zeros(len(FACTORS)), method="hybr",
+             options={"eps": 0.01, "factor": 1.0, "maxfev": config.max_evaluations})
+    except _Stop:
+        pass
+    if not history:
+        raise GrainfracError("calibration: no evaluation finished")
+    best = min(history, key=lambda row: row["max_error"])
+    factors = {name: best[name] for name in FACTORS}
+    say(f"best: evaluation {best['evaluation']} (largest error {best['max_error']:.1%})")
+
+    a0 = _calibrate_aperture(recipe, factors, config, bench, targets["permeability_m2"])
+    final = scaled_recipe(recipe, factors, initial_aperture_m=a0, name=config.name)
+    say("measuring the calibrated recipe (UCS, BTS, NSCB, permeability)...")
+    achieved, runs = bench.measure(final, ("ucs", "bts", "nscb", "permeability"))
+    errors = {k: achieved[k] / targets[k] - 1.0 for k in REPORTED if k in achieved}
+    return {
+        "recipe": final,
+        "factors": factors,
+        "initial_aperture_m": a0,
+        "history": history,
+        "achieved": achieved,
+        "errors": errors,
+        "per_seed": runs,
+        "converged": best["max_error"] <= config.tolerance,
+        "targets": targets,
+    }
+
+
+class _Stop(Exception):
+    """Converged, or the evaluation budget is spent."""
+
+
+def _calibrate_aperture(recipe, factors, config, bench, target: float) -> float:
+    """a0 from one constant-head test per seed: k ~ a0^3 on an intact assembly."""
+    start_a0 = recipe.hydraulic.initial_aperture_m
+    means, _ = bench.measure(scaled_recipe(recipe, factors), ("permeability",))
+    return start_a0 * (target / means["permeability_m2"]) ** (1.0 / 3.0)
+
+
+def write_calibration(result: dict[str, Any], config: CalibrationConfig, out: str | Path,
+                      wall_time_s: float) -> dict[str, Path]:
+    """Write the calibrated recipe, the target-vs-achieved table and the history."""
+    out = Path(out)
+    recipe: materials.RockRecipe = result["recipe"]
+    quantities = ", ".join(LABELS[k] for k in REPORTED)
+    header = (f"# {recipe.name}: calibrated by grainfrac against {quantities}\n"
+              f"# over seeds {config.seeds} at grains {config.grains.min_edge_mm:g}-"
+              f"{config.grains.max_edge_mm:g} mm (zone {config.grains.zone_size_mm:g} mm).\n"
+              f"# Factors on the start recipe: "
+              + ", ".join(f"{k} {v:.4f}" for k, v in result["factors"].items()) + "\n")
+    import tomli_w
+
+    recipe_path = write_text(out / f"{recipe.name}.toml",
+                             header + tomli_w.dumps(recipe.model_dump(mode="json")))
+    rows = []
+    for key in REPORTED:
+        achieved = result["achieved"].get(key)
+        target = result["targets"][key]
+        rows.append({"quantity": LABELS[key], "laboratory": target, "simulated": achieved,
+                     "error_percent": None if achieved is None
+                     else 100.0 * (achieved / target - 1.0)})
+    table_csv = write_csv(out / "table.csv", rows,
+                          ["quantity", "laboratory", "simulated", "error_percent"])
+    lines = ["| quantity | laboratory | simulated | error % |", "|---|---|---|---|"]
+    for r in rows:
+        sim = "-" if r["simulated"] is None else f"{r['simulated']:.4g}"
+        err = "-" if r["error_percent"] is None else f"{r['error_percent']:+.2f}"
+        lines.append(f"| {r['quantity']} | {r['laboratory']:.4g} | {sim} | {err} |")
+    table_md = write_text(out / "table.md", "\n".join(lines) + "\n")
+    history_cols = ["evaluation", *FACTORS, "ucs_MPa", "bts_MPa", "youngs_modulus_GPa",
+                    "poisson_ratio", "max_error", "wall_time_s"]
+    history = write_csv(out / "history.csv", result["history"], history_cols)
+    write_toml(out / "config.toml", config.model_dump(mode="json", exclude_none=True))
+    summary = {
+        "name": recipe.name,
+        "converged": result["converged"],
+        "factors": result["factors"],
+        "initial_aperture_m": result["initial_aperture_m"],
+        "targets": result["targets"],
+        "achieved": result["achieved"],
+        "errors": result["errors"],
+        "evaluations": len(result["history"]),
+        "seeds": config.seeds,
+        "wall_time_s": wall_time_s,
+        "per_seed": result["per_seed"],
+    }
+    write_json(out / "summary.json", summary)
+    return {"recipe": recipe_path, "table_csv": table_csv, "table_md": table_md,
+            "history": history}

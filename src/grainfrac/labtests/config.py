@@ -1,0 +1,144 @@
+"""The lab-test file: which test, on which rock, specimen, grains and loading.
+
+Defaults are the paper's specimens (Table 3) and test conditions (Table 4).
+Grains default finer than the stimulation slab (2-5 mm instead of 3-8 mm):
+a 22.5 mm wide UCS section holds only ~14 grains of 3-8 mm, too few to
+fail as a rock does (it carries load until the elements themselves distort);
+at 2-5 mm it holds ~35 grains and shows a peak, axial splitting and a
+post-peak drop. The grain size can be set per test and is part of what a
+calibration is valid for.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Literal
+
+from pydantic import Field, model_validator
+
+from grainfrac import materials
+from grainfrac.assembly import GrainSpec, SpecimenConfig
+from grainfrac.geometry.specimens import (
+    DiskSpec,
+    RectangleSpec,
+    SemiDiskSpec,
+    SpecimenShapeSpec,
+)
+from grainfrac.io.config import StrictModel, read_toml, validate
+
+TEST_KINDS = ("ucs", "bts", "nscb", "permeability")
+
+# Specimen shape each test needs, and its default (paper Table 3 dimensions).
+_SHAPE_OF_TEST = {"ucs": "rectangle", "bts": "disk", "nscb": "semi_disk",
+                  "permeability": "rectangle"}
+_DEFAULT_SPECIMEN = {"ucs": RectangleSpec, "bts": DiskSpec, "nscb": SemiDiskSpec,
+                     "permeability": RectangleSpec}
+
+# Platen speeds (mm/s) at which halving the speed changes the strength by < 3 %
+# (measured in tests/test_labtests.py). The NSCB beam is compliant and loaded at
+# one point, so it rings at higher speeds.
+DEFAULT_PLATEN_SPEED = {"ucs": 25.0, "bts": 25.0, "nscb": 1.25}
+
+LAB_GRAINS = {"min_edge_mm": 2.0, "max_edge_mm": 5.0, "zone_size_mm": 1.25}
+
+# Experimental permeability of intact Strathbogie granite at 10 MPa confinement
+# (Kumari et al. 2018, paper Sect. 3.2) and the Table 4 heads.
+TABLE4_PRESSURE_IN_MPA = 8.0
+TABLE4_PRESSURE_OUT_MPA = 0.0
+
+
+class LoadingSpec(StrictModel):
+    """Platen loading of the mechanical tests (UCS, BTS, NSCB).
+
+    Each platen moves at ``platen_speed_mm_per_s`` (slow enough to be
+    quasi-static: halving it changes the strength by < 3 %, see the tests).
+    The test ends when the load has fallen below ``stop_fraction`` of its peak,
+    or when the platens have closed ``post_peak_factor`` times the closure at
+    the first peak (a 2D small-strain assembly can carry load again after it
+    has split: that lock-up is recorded but is not strength), or at
+    ``max_strain`` (closure over specimen size) with no peak: then the result
+    says ``peak_found = false``.
+    """
+
+    platen_speed_mm_per_s: float | None = Field(
+        None, gt=0, le=1000.0,
+        description="speed of each platen [mm/s]; default per test (DEFAULT_PLATEN_SPEED)")
+    stop_fraction: float = Field(0.7, gt=0, lt=1, description="stop below this x peak load")
+    peak_drop_fraction: float = Field(
+        0.05, gt=0, lt=0.5,
+        description="a fall of this fraction below the running maximum marks the first peak")
+    post_peak_factor: float = Field(1.5, gt=1, le=10,
+                                    description="stop at this x closure at the first peak")
+    max_strain: float = Field(0.03, gt=0, le=0.2,
+                              description="give up at this closure / specimen size")
+    sample_steps: int = Field(200, ge=10, le=100_000, description="steps between samples")
+
+
+class PermeabilitySpec(StrictModel):
+    """Constant-head test (paper Eq. 8, Table 4): inlet on top, outlet at the bottom."""
+
+    pressure_in_MPa: float = Field(TABLE4_PRESSURE_IN_MPA, ge=0)
+    pressure_out_MPa: float = Field(TABLE4_PRESSURE_OUT_MPA, ge=0)
+    initial_aperture_m: float | None = Field(
+        None, gt=0, lt=1e-3,
+        description="a0 [m]; default: the rock's hydraulic.initial_aperture_m")
+    viscosity_Pa_s: float = Field(1.0e-3, gt=0)
+
+    @model_validator(mode="after")
+    def _head(self) -> PermeabilitySpec:
+        if self.pressure_in_MPa <= self.pressure_out_MPa:
+            raise ValueError(
+                f"pressure_in_MPa: must be > pressure_out_MPa ({self.pressure_out_MPa:g}) "
+                f"(got {self.pressure_in_MPa:g})")
+        return self
+
+
+class LabTestConfig(StrictModel):
+    """One virtual laboratory test: ``grainfrac labtest TEST --rock RECIPE``."""
+
+    test: Literal["ucs", "bts", "nscb", "permeability"]
+    name: str | None = None
+    seed: int = Field(0, ge=0)
+    rock: str | materials.RockRecipe = "strathbogie-granite"
+    specimen: SpecimenShapeSpec | None = Field(None, description="default: paper Table 3")
+    grains: GrainSpec = Field(default_factory=lambda: GrainSpec(**LAB_GRAINS))
+    loading: LoadingSpec = Field(default_factory=LoadingSpec)
+    permeability: PermeabilitySpec = Field(default_factory=PermeabilitySpec)
+
+    @model_validator(mode="after")
+    def _shape_fits_test(self) -> LabTestConfig:
+        if self.specimen is not None and self.specimen.shape != _SHAPE_OF_TEST[self.test]:
+            raise ValueError(
+                f"specimen.shape: the {self.test} test needs a "
+                f"{_SHAPE_OF_TEST[self.test]} (got {self.specimen.shape!r})")
+        return self
+
+    @property
+    def platen_speed_mm_per_s(self) -> float:
+        """The platen speed in use: the loading section's, or the test's default."""
+        speed = self.loading.platen_speed_mm_per_s
+        return speed if speed is not None else DEFAULT_PLATEN_SPEED.get(self.test, 25.0)
+
+    @property
+    def run_name(self) -> str:
+        return self.name or f"{self.test}-seed{self.seed}"
+
+    def specimen_config(self) -> SpecimenConfig:
+        """The specimen to build (Table 3 dimensions unless given)."""
+        spec = self.specimen if self.specimen is not None else _DEFAULT_SPECIMEN[self.test]()
+        return SpecimenConfig(seed=self.seed, rock=self.rock, specimen=spec, grains=self.grains)
+
+    def recipe(self, base_dir: Path | None = None) -> materials.RockRecipe:
+        return self.specimen_config().recipe(base_dir)
+
+
+def lab_test_config(test: str, **fields) -> LabTestConfig:
+    """Validate a lab-test config from keyword fields (one-line ConfigError on bad input)."""
+    return validate(LabTestConfig, {"test": test, **fields})
+
+
+def load_lab_test_config(path: str | Path, **overrides) -> LabTestConfig:
+    """Read a lab-test TOML file; ``overrides`` (e.g. ``test``, ``seed``) replace its keys."""
+    data = read_toml(Path(path))
+    data.update({k: v for k, v in overrides.items() if v is not None})
+    return validate(LabTestConfig, data)

@@ -1,0 +1,172 @@
+"""UCS, BTS and NSCB: where the platens go, what is monitored, how the curve is read.
+
+Each test is a pair of functions: ``place_*`` puts platens and supports on the
+specimen, ``reduce_*`` turns the loading curve into the lab's numbers
+(paper Table 3). Rigid-body drift is removed by holding the x displacement of
+one node per loading platen (the friction a real platen has at one point);
+the platens themselves are frictionless.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from grainfrac.assembly import GrainAssembly
+from grainfrac.labtests.config import LabTestConfig
+from grainfrac.labtests.formulas import (
+    brazilian_tensile_strength,
+    nscb_fracture_toughness,
+    nscb_geometry_factor,
+    plane_strain_to_isotropic,
+    slope_between,
+)
+from grainfrac.labtests.platens import LoadingCurve, PlatenTest, closing_platen, first_peak
+from grainfrac.loading.boundary import Loads
+from grainfrac.physics.model import MechanicalModel
+from grainfrac.units import GPA, MPA
+
+# UCS: E (tangent) and nu are fitted between these fractions of the UCS (paper: at 50 %).
+TANGENT_WINDOW = (0.4, 0.6)
+
+
+def _hold_x(loads: Loads, xy: np.ndarray, nodes: np.ndarray, x: float = 0.0) -> None:
+    loads.fixed[nodes[np.argmin(np.abs(xy[nodes, 0] - x))], 0] = True
+
+
+def _extent(assembly: GrainAssembly) -> tuple[np.ndarray, np.ndarray]:
+    v = assembly.mesh.grains.vertices
+    return v.min(axis=0), v.max(axis=0)
+
+
+# --------------------------------------------------------------------------- UCS
+def ucs_test(assembly: GrainAssembly) -> PlatenTest:
+    """Rectangle between a top and a bottom platen; axial and lateral strain monitors."""
+    mesh = assembly.mesh
+    ns, xy = mesh.node_sets, mesh.node_xy
+    lo, hi = _extent(assembly)
+    width, height = float(hi[0] - lo[0]), float(hi[1] - lo[1])
+
+    def place(a: GrainAssembly, model: MechanicalModel, loads: Loads):
+        _hold_x(loads, xy, ns["bottom"])
+        return [closing_platen(a, model, ns["top"], +1, 0.0),
+                closing_platen(a, model, ns["bottom"], -1, 0.0)]
+
+    monitors = {
+        # Strains from the specimen's own faces: the platen penalty is not in them.
+        "axial_strain": lambda s: -(s.u[ns["top"], 1].mean() - s.u[ns["bottom"], 1].mean())
+        / height,
+        "lateral_strain": lambda s: (s.u[ns["right"], 0].mean() - s.u[ns["left"], 0].mean())
+        / width,
+    }
+    return PlatenTest.build(assembly, place, height, monitors)
+
+
+def reduce_ucs(curve: LoadingCurve, assembly: GrainAssembly, config: LabTestConfig,
+               ) -> dict[str, Any]:
+    """UCS (first peak), E (tangent at 50 % UCS) and nu, as a 3D test would report them."""
+    lo, hi = _extent(assembly)
+    area = float(hi[0] - lo[0]) * assembly.mesh.thickness
+    stress = curve.array("load") / area
+    eps_a, eps_l = curve.array("axial_strain"), curve.array("lateral_strain")
+    peak, found = first_peak(stress, config.loading.peak_drop_fraction)
+    ucs = float(stress[peak])
+    window = (TANGENT_WINDOW[0] * ucs, TANGENT_WINDOW[1] * ucs)
+    modulus_ps = slope_between(eps_a, stress, *window, upto=peak + 1)
+    # nu' = d eps_lateral / d eps_axial over the same window (both positive here).
+    ratio_ps = slope_between(eps_a, eps_l, *window, by=stress, upto=peak + 1)
+    youngs, poisson = plane_strain_to_isotropic(modulus_ps, ratio_ps)
+    return {
+        "ucs_MPa": ucs / MPA,
+        "youngs_modulus_GPa": youngs / GPA,
+        "poisson_ratio": poisson,
+        "plane_strain_modulus_GPa": modulus_ps / GPA,
+        "plane_strain_poisson_ratio": ratio_ps,
+        "axial_strain_at_peak": float(eps_a[peak]),
+        "loaded_area_m2": area,
+        "peak_found": found,
+        "peak_index": peak,
+    }
+
+
+# --------------------------------------------------------------------------- BTS
+def bts_test(assembly: GrainAssembly) -> PlatenTest:
+    """Disk between flat platens touching its top and bottom (diametral compression)."""
+    mesh = assembly.mesh
+    per, xy = mesh.node_sets["perimeter"], mesh.node_xy
+    top, bottom = per[xy[per, 1] > 0.0], per[xy[per, 1] < 0.0]
+
+    def place(a: GrainAssembly, model: MechanicalModel, loads: Loads):
+        _hold_x(loads, xy, top)
+        _hold_x(loads, xy, bottom)
+        return [closing_platen(a, model, top, +1, 0.0),
+                closing_platen(a, model, bottom, -1, 0.0)]
+
+    lo, hi = _extent(assembly)
+    return PlatenTest.build(assembly, place, float(hi[1] - lo[1]))
+
+
+def reduce_bts(curve: LoadingCurve, assembly: GrainAssembly, config: LabTestConfig,
+               ) -> dict[str, Any]:
+    """Brazilian tensile strength from the peak load (paper Eq. 5)."""
+    load = curve.array("load")
+    peak, found = first_peak(load, config.loading.peak_drop_fraction)
+    lo, hi = _extent(assembly)
+    diameter = float(hi[1] - lo[1])
+    sigma = brazilian_tensile_strength(float(load[peak]), diameter, assembly.mesh.thickness)
+    return {"bts_MPa": sigma / MPA, "peak_load_kN": float(load[peak]) / 1e3,
+            "peak_found": found, "peak_index": peak}
+
+
+# --------------------------------------------------------------------------- NSCB
+def nscb_test(assembly: GrainAssembly, support_span: float) -> PlatenTest:
+    """Three-point bending: rollers under the base at +-S/2, a platen on the apex."""
+    mesh = assembly.mesh
+    xy, ns = mesh.node_xy, mesh.node_sets
+    base, arc = ns["base"], ns["arc"]
+    reach = 0.75 * mesh.zone_size  # a roller touches the nodes within this of its line
+
+    def place(a: GrainAssembly, model: MechanicalModel, loads: Loads):
+        for x in (-0.5 * support_span, 0.5 * support_span):
+            nodes = base[np.abs(xy[base, 0] - x) <= reach]
+            if len(nodes) == 0:
+                nodes = base[[np.argmin(np.abs(xy[base, 0] - x))]]
+            loads.platens.append(closing_platen(a, model, nodes, -1, 0.0))
+        apex = arc[np.abs(xy[arc, 0]) <= reach]
+        if len(apex) == 0:
+            apex = arc[[np.argmin(np.abs(xy[arc, 0]))]]
+        _hold_x(loads, xy, apex)
+        return [closing_platen(a, model, apex, +1, 0.0)]
+
+    lo, hi = _extent(assembly)
+    return PlatenTest.build(assembly, place, float(hi[1] - lo[1]))
+
+
+def reduce_nscb(curve: LoadingCurve, assembly: GrainAssembly, config: LabTestConfig,
+                ) -> dict[str, Any]:
+    """Fracture toughness from the peak bending load (paper Eqs. 6-7, Kuruppu et al. 2014)."""
+    spec = config.specimen_config().specimen
+    load = curve.array("load")
+    peak, found = first_peak(load, config.loading.peak_drop_fraction)
+    radius = spec.diameter_mm * 1e-3 / 2
+    notch, span = spec.notch_length_mm * 1e-3, spec.support_span_mm * 1e-3
+    kic = nscb_fracture_toughness(float(load[peak]), radius, assembly.mesh.thickness, notch, span)
+    return {"kic_MPa_sqrt_m": kic / MPA, "peak_load_kN": float(load[peak]) / 1e3,
+            "geometry_factor": nscb_geometry_factor(span, radius, notch),
+            "peak_found": found, "peak_index": peak}
+
+
+def build_test(config: LabTestConfig, assembly: GrainAssembly) -> PlatenTest:
+    """The platen test of ``config.test`` on ``assembly``."""
+    if config.test == "ucs":
+        return ucs_test(assembly)
+    if config.test == "bts":
+        return bts_test(assembly)
+    if config.test == "nscb":
+        span = config.specimen_config().specimen.support_span_mm * 1e-3
+        return nscb_test(assembly, span)
+    raise ValueError(f"{config.test} is not a platen test")
+
+
+REDUCERS = {"ucs": reduce_ucs, "bts": reduce_bts, "nscb": reduce_nscb}
