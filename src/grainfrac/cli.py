@@ -224,6 +224,95 @@ def _print_run_summary(results: dict[str, dict]) -> None:
 
 
 @app.command()
+def labtest(
+    test: Annotated[str, typer.Argument(help="ucs, bts, nscb or permeability.")],
+    out: Annotated[Path, typer.Option("--out", help="Run directory.")],
+    rock: Annotated[str | None, typer.Option(
+        "--rock", help="Rock preset name or recipe TOML (default strathbogie-granite).")] = None,
+    config: Annotated[Path | None, typer.Option(
+        "--config", help="Lab-test TOML (specimen, grains, loading); flags override it.")] = None,
+    seed: Annotated[int | None, typer.Option(help="Seed of the grain structure.")] = None,
+) -> None:
+    """A virtual laboratory test (paper Table 3): curve, crack pattern, summary.json."""
+    from grainfrac.labtests import TEST_KINDS, load_lab_test_config, run_labtest
+    from grainfrac.labtests.config import lab_test_config
+
+    if test not in TEST_KINDS:
+        _fail(ValueError(f"unknown lab test {test!r}; known: {', '.join(TEST_KINDS)}"))
+    try:
+        overrides = {"test": test, "rock": rock, "seed": seed}
+        if config is not None:
+            cfg = load_lab_test_config(config, **overrides)
+        else:
+            cfg = lab_test_config(**{k: v for k, v in overrides.items() if v is not None})
+        recipe = cfg.recipe(config.parent if config is not None else Path.cwd())
+        summary = _run_labtest_with_progress(cfg, recipe, out, run_labtest)
+    except GrainfracError as exc:
+        _fail(exc)
+    table = Table(title=f"{test.upper()} {cfg.run_name} ({recipe.name})")
+    table.add_column("quantity")
+    table.add_column("value", justify="right")
+    for key in ("ucs_MPa", "youngs_modulus_GPa", "poisson_ratio", "bts_MPa", "kic_MPa_sqrt_m",
+                "permeability_m2", "n_grains", "n_cracks", "stop_reason", "wall_time_s"):
+        if key in summary:
+            value = summary[key]
+            table.add_row(key, f"{value:.4g}" if isinstance(value, float) else str(value))
+    console.print(table)
+    console.print(f"wrote {out}/ (summary.json, config.toml"
+                  + (", curve.csv, cracks.csv, figures/)" if test != "permeability" else ")"))
+
+
+def _run_labtest_with_progress(cfg, recipe, out: Path, run_labtest) -> dict:
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    if cfg.test == "permeability":
+        with console.status("constant-head test..."):
+            return run_labtest(cfg, out, recipe=recipe)
+    columns = (TextColumn("[bold]{task.description}"), BarColumn(),
+               TextColumn("{task.fields[load]}"), TimeElapsedColumn())
+    with Progress(*columns, console=console, transient=True) as bar:
+        task = bar.add_task(cfg.test.upper(), total=None, load="")
+
+        def show(curve) -> None:
+            if len(curve.load) % 10 == 0:
+                bar.update(task, load=f"load {curve.load[-1] / 1e3:.2f} kN (peak "
+                           f"{max(curve.load) / 1e3:.2f}), {curve.n_cracks[-1]} cracks")
+
+        return run_labtest(cfg, out, recipe=recipe, progress=show)
+
+
+@app.command()
+def calibrate(
+    targets: Annotated[Path, typer.Argument(help="TARGETS.toml: start rock, lab targets, seeds.")],
+    out: Annotated[Path, typer.Option("--out", help="Output directory.")] = Path("calibration"),
+) -> None:
+    """Fit micro-parameters to lab targets with the virtual UCS/BTS/NSCB/permeability tests."""
+    from grainfrac import calibration
+
+    start = time.perf_counter()
+    try:
+        config, recipe = calibration.load_calibration_config(targets)
+        with console.status("calibrating...") as status:
+            result = calibration.calibrate(
+                config, recipe, log=lambda msg: (console.print(msg), status.update(msg)))
+        paths = calibration.write_calibration(result, config, out, time.perf_counter() - start)
+    except GrainfracError as exc:
+        _fail(exc)
+    table = Table(title=f"{config.name}: laboratory vs simulated (mean of seeds {config.seeds})")
+    for col in ("quantity", "laboratory", "simulated", "error %"):
+        table.add_column(col, justify="right" if col != "quantity" else "left")
+    for key, label in calibration.LABELS.items():
+        achieved = result["achieved"].get(key)
+        target = result["targets"][key]
+        table.add_row(label, f"{target:.4g}", _fmt(achieved, ".4g"),
+                      _fmt(None if achieved is None else 100 * (achieved / target - 1), "+.2f"))
+    console.print(table)
+    console.print(f"{'converged' if result['converged'] else 'NOT converged'} after "
+                  f"{len(result['history'])} evaluations in {time.perf_counter() - start:.0f} s; "
+                  f"wrote {paths['recipe']} and {paths['table_md']}")
+
+
+@app.command()
 def report(
     run_dirs: Annotated[list[Path], typer.Argument(help="One or more run directories.")],
     out: Annotated[Path | None, typer.Option("--out", help="HTML file (default: report.html "
