@@ -334,3 +334,20 @@ def test_broken_residual_aperture_option():
     with pytest.raises(ConfigError) as info:
         _validate(Scenario, {**base, "fluid": {"broken_residual_aperture_m": 1e-3}})
     assert info.value.field == "fluid.broken_residual_aperture_m"
+
+
+def test_rock_initial_aperture_is_used_unless_the_fluid_sets_one():
+    """A calibrated recipe carries a0 (hydraulic.initial_aperture_m); scenarios use it."""
+    from grainfrac import materials
+    from grainfrac.scenario import hs_only
+
+    rock = materials.load_recipe("strathbogie-granite").model_copy(
+        update={"hydraulic": materials.HydraulicSpec(initial_aperture_m=1.5e-7)})
+    scenario = hs_only(rock=rock)
+    props = scenario.fluid.properties(rock.hydraulic.initial_aperture_m)
+    assert props.initial_aperture == 1.5e-7
+    assert props.residual_aperture == 1.5e-7  # an unset a_res follows a0 down
+    resolved = scenario.resolved(rock)
+    assert resolved.fluid.initial_aperture_m == 1.5e-7
+    explicit = hs_only(rock=rock, fluid={"initial_aperture_m": 2.5e-7})
+    assert explicit.fluid.properties(1.5e-7).initial_aperture == 2.5e-7

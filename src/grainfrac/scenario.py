@@ -201,13 +201,24 @@ class FluidSpec(StrictModel):
             seen.add(side)
         return self
 
-    def properties(self) -> FluidProperties:
-        """The SI fluid properties for the flow solver."""
+    def properties(self, rock_initial_aperture_m: float | None = None) -> FluidProperties:
+        """The SI fluid properties for the flow solver.
+
+        ``rock_initial_aperture_m`` (the rock recipe's calibrated a0) is used
+        when this file does not set ``initial_aperture_m``; an unset residual
+        aperture then follows it down if it is smaller.
+        """
+        a0, a_res = self.initial_aperture_m, self.residual_aperture_m
+        unset = self.model_fields_set
+        if rock_initial_aperture_m is not None and "initial_aperture_m" not in unset:
+            a0 = rock_initial_aperture_m
+            if "residual_aperture_m" not in unset:
+                a_res = min(a_res, a0)
         return FluidProperties(
             viscosity=self.viscosity_Pa_s,
             bulk_modulus=self.bulk_modulus_GPa * GPA,
-            initial_aperture=self.initial_aperture_m,
-            residual_aperture=self.residual_aperture_m,
+            initial_aperture=a0,
+            residual_aperture=a_res,
             maximum_aperture=self.maximum_aperture_m,
             broken_residual_aperture=self.broken_residual_aperture_m,
         )
@@ -519,7 +530,12 @@ class Scenario(StrictModel):
             if isinstance(stage, ScdaStage):
                 stage = stage.model_copy(update={"scda": _scda_material(stage, i, base_dir)})
             stages.append(stage)
-        return validate(Scenario, {**dict(self), "rock": recipe, "stages": stages})
+        # The apertures in use: the rock's calibrated a0 unless the fluid section sets one.
+        props = self.fluid.properties(recipe.hydraulic.initial_aperture_m)
+        fluid = self.fluid.model_copy(update={"initial_aperture_m": props.initial_aperture,
+                                              "residual_aperture_m": props.residual_aperture})
+        return validate(Scenario, {**dict(self), "rock": recipe, "stages": stages,
+                                   "fluid": fluid})
 
 
 def _scda_material(stage: ScdaStage, index: int, base_dir: Path | None) -> materials.ScdaRecipe:

@@ -285,7 +285,8 @@ class Run:
             self.assembly.mesh, permeable_sides=fluid.fixed_pressures(), well=True,
             well_compressibility=fluid.well_compressibility,
         )
-        return HydroMechanicalSolver(self.assembly, self.solver, network, fluid.properties())
+        a0 = self.assembly.recipe.hydraulic.initial_aperture_m
+        return HydroMechanicalSolver(self.assembly, self.solver, network, fluid.properties(a0))
 
     def _inject(self, stage: InjectStage) -> bool:
         st = self.state
