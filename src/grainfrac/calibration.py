@@ -282,7 +282,9 @@ def write_calibration(result: dict[str, Any], config: CalibrationConfig, out: st
     table_md = write_text(out / "table.md", "\n".join(lines) + "\n")
     history_cols = ["evaluation", *FACTORS, "ucs_MPa", "bts_MPa", "youngs_modulus_GPa",
                     "poisson_ratio", "max_error", "wall_time_s"]
-    history = write_csv(out / "history.csv", result["history"], history_cols)
+    history = write_csv(out / "history.csv",
+                        [{k: row.get(k) for k in history_cols} for row in result["history"]],
+                        history_cols)
     write_toml(out / "config.toml", config.model_dump(mode="json", exclude_none=True))
     summary = {
         "name": recipe.name,

@@ -1,0 +1,100 @@
+"""Calibration: recipe scaling, the root finder on a known response, the targets file.
+
+The end-to-end calibration with real lab tests takes minutes and runs in
+``benchmarks/labtests.py``; here the root finder meets a lab bench whose
+response is a known, coupled power law, so convergence is checked exactly.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from grainfrac import calibration, materials
+from grainfrac.calibration import CalibrationConfig, LabBench, calibrate, scaled_recipe
+from grainfrac.errors import ConfigError
+from grainfrac.io.config import validate
+
+BASE = materials.load_recipe("strathbogie-granite")
+
+
+def test_scaled_recipe_scales_what_the_table_says():
+    r = scaled_recipe(BASE, {"stiffness": 2.0, "shear_ratio": 0.5, "strength": 0.25,
+                             "friction": 2.0}, initial_aperture_m=3e-7, name="x")
+    q0, q = BASE.contacts["Q-Q"], r.contacts["Q-Q"]
+    quartz0, quartz = BASE.minerals[2], r.minerals[2]
+    assert quartz.youngs_modulus_GPa == pytest.approx(2 * quartz0.youngs_modulus_GPa)
+    assert q.normal_stiffness_GPa_per_m == pytest.approx(2 * q0.normal_stiffness_GPa_per_m)
+    assert q.shear_stiffness_GPa_per_m == pytest.approx(q0.shear_stiffness_GPa_per_m)
+    assert q.tensile_strength_MPa == pytest.approx(q0.tensile_strength_MPa / 4)
+    assert q.cohesion_MPa == pytest.approx(q0.cohesion_MPa / 4)
+    assert math.tan(math.radians(q.friction_angle_deg)) == pytest.approx(
+        2 * math.tan(math.radians(q0.friction_angle_deg)))
+    assert r.hydraulic.initial_aperture_m == 3e-7 and r.name == "x"
+
+
+def _factors(recipe: materials.RockRecipe) -> dict[str, float]:
+    q0, q = BASE.contacts["Q-Q"], recipe.contacts["Q-Q"]
+    stiffness = recipe.minerals[2].youngs_modulus_GPa / BASE.minerals[2].youngs_modulus_GPa
+    return {
+        "stiffness": stiffness,
+        "shear_ratio": q.shear_stiffness_GPa_per_m / q0.shear_stiffness_GPa_per_m / stiffness,
+        "strength": q.tensile_strength_MPa / q0.tensile_strength_MPa,
+        "friction": math.tan(math.radians(q.friction_angle_deg))
+        / math.tan(math.radians(q0.friction_angle_deg)),
+    }
+
+
+def _power_law_bench(self, recipe, tests):
+    """Coupled responses near the measured Table 2 values (evaluations 1-7 of a real run)."""
+    f = _factors(recipe)
+    a0 = recipe.hydraulic.initial_aperture_m
+    means = {
+        "youngs_modulus_GPa": 16.93 * f["stiffness"] * f["shear_ratio"] ** 0.02,
+        "poisson_ratio": 0.2315 * f["shear_ratio"] ** -0.15,
+        "bts_MPa": 10.85 * f["strength"] * f["friction"] ** 0.05,
+        "ucs_MPa": 85.48 * f["strength"] * f["friction"] ** 0.6,
+        "kic_MPa_sqrt_m": 0.67 * f["strength"],
+        "permeability_m2": 8.9e-20 * (a0 / 2e-7) ** 3,
+    }
+    return means, [means]
+
+
+def test_calibrate_converges_on_a_coupled_response(monkeypatch):
+    monkeypatch.setattr(LabBench, "measure", _power_law_bench)
+    config = validate(CalibrationConfig, {"seeds": [0], "tolerance": 0.01,
+                                          "max_evaluations": 30})
+    messages = []
+    result = calibrate(config, BASE, log=messages.append)
+    print("\n" + "\n".join(messages))
+    print(result["errors"])
+    assert result["converged"]
+    for key in ("ucs_MPa", "bts_MPa", "youngs_modulus_GPa", "poisson_ratio"):
+        assert abs(result["errors"][key]) < 0.01
+    assert abs(result["errors"]["permeability_m2"]) < 1e-9  # k ~ a0^3 solved exactly
+    assert len(result["history"]) <= 30
+
+
+def test_write_calibration_writes_recipe_table_history(monkeypatch, tmp_path):
+    monkeypatch.setattr(LabBench, "measure", _power_law_bench)
+    config = validate(CalibrationConfig, {"seeds": [0], "name": "demo-rock"})
+    result = calibrate(config, BASE)
+    paths = calibration.write_calibration(result, config, tmp_path, 1.0)
+    recipe = materials.load_recipe(paths["recipe"])
+    assert recipe.name == "demo-rock"
+    assert recipe.hydraulic.initial_aperture_m == pytest.approx(result["initial_aperture_m"])
+    table = paths["table_md"].read_text()
+    assert "UCS (MPa)" in table and "K_IC" in table
+
+
+@pytest.mark.parametrize("data,field", [
+    ({"targets": {"ucs_MPa": -1}}, "targets.ucs_MPa"),
+    ({"seeds": []}, "seeds"),
+    ({"tolerance": 0}, "tolerance"),
+    ({"targets": {"ucs": 100}}, "targets.ucs"),
+])
+def test_bad_targets_file_names_the_field(data, field):
+    with pytest.raises(ConfigError) as info:
+        validate(CalibrationConfig, data)
+    assert field in str(info.value)
