@@ -63,7 +63,8 @@ def _power_law_bench(self, recipe, tests):
 
 def test_calibrate_converges_on_a_coupled_response(monkeypatch):
     monkeypatch.setattr(LabBench, "measure", _power_law_bench)
-    config = validate(CalibrationConfig, {"seeds": [0], "tolerance": 0.01,
+    every = ["stiffness", "shear_ratio", "strength", "friction"]
+    config = validate(CalibrationConfig, {"seeds": [0], "tolerance": 0.01, "factors": every,
                                           "max_evaluations": 30})
     messages = []
     result = calibrate(config, BASE, log=messages.append)

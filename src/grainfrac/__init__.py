@@ -23,6 +23,9 @@ _VERBS = {
     "run_scenario": "grainfrac.simulation",
     "analyse_run": "grainfrac.analysis",
     "build_report": "grainfrac.viz.report",
+    "lab_test_config": "grainfrac.labtests",
+    "run_labtest": "grainfrac.labtests",
+    "load_sweep": "grainfrac.studies",
 }
 
 __all__ = ["__version__", *_VERBS]
