@@ -143,10 +143,6 @@ def verify(
     raise typer.Exit(code=0 if all_passed(comparisons) else 1)
 
 
-if __name__ == "__main__":  # pragma: no cover
-    app()
-
-
 @app.command()
 def run(
     scenario: Annotated[Path | None, typer.Argument(help="Scenario TOML (stages, stress, rock).")
@@ -423,3 +419,7 @@ def study(
                           soft_wrap=True)
     if done.failures:
         raise typer.Exit(code=1)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    app()
