@@ -22,15 +22,16 @@ from grainfrac.units import MM
 RAMP_SAMPLES = 20  # samples over which the platen speed ramps up from zero
 
 
-def penalty_stiffness(assembly: GrainAssembly, model: MechanicalModel, n_nodes: int) -> np.ndarray:
-    """Per-node platen stiffness (N/m): a grain-contact spring of one zone's area.
-
-    As stiff as the rock's own contacts, so the platen neither sinks in nor
-    limits the time step (the node masses already carry springs this stiff).
-    """
+def penalty_stiffness(assembly: GrainAssembly, model: MechanicalModel,
+                      nodes: np.ndarray) -> np.ndarray:
+    """Per-node platen stiffness (N/m): a grain-contact spring of one zone's area,
+    capped at the node's own stiffness bound so the platen never limits the time
+    step (a spring as stiff as the node's row at most halves the stable margin,
+    which safety 0.5 allows; with 1000x stiffer contacts the uncapped spring
+    blew up at step 8)."""
     mesh = assembly.mesh
     k = float(np.median(model.normal_stiffness)) * mesh.zone_size * mesh.thickness
-    return np.full(n_nodes, k)
+    return np.minimum(k, model.nodal_stiffness[nodes])
 
 
 def closing_platen(assembly: GrainAssembly, model: MechanicalModel, nodes: np.ndarray,
@@ -43,7 +44,7 @@ def closing_platen(assembly: GrainAssembly, model: MechanicalModel, nodes: np.nd
     y = assembly.mesh.node_xy[nodes, 1]
     position = float(y.max() if side > 0 else y.min())
     return Platen(np.asarray(nodes, dtype=np.int64), 1, side, position, -side * speed,
-                  penalty_stiffness(assembly, model, len(nodes)))
+                  penalty_stiffness(assembly, model, nodes))
 
 
 @dataclass
