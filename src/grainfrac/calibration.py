@@ -50,6 +50,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
+import tomli_w
 from pydantic import Field, field_validator
 
 from grainfrac import materials
@@ -145,32 +146,47 @@ def scaled_recipe(recipe: materials.RockRecipe, factors: dict[str, float], *,
     return validate(materials.RockRecipe, data)
 
 
-def _lab_value(job: tuple[str, int, dict, dict]) -> dict[str, Any]:
+def _lab_value(job: tuple[str, int, materials.RockRecipe, GrainSpec]) -> dict[str, Any]:
     """One lab test (worker process): returns its summary."""
     from grainfrac.labtests.run import measure
 
-    test, seed, recipe_data, grains = job
-    recipe = materials.RockRecipe(**recipe_data)
-    config = LabTestConfig(test=test, seed=seed, rock=recipe, grains=GrainSpec(**grains))
+    test, seed, recipe, grains = job
+    config = LabTestConfig(test=test, seed=seed, rock=recipe, grains=grains)
     return measure(config, recipe=recipe)["summary"]
 
 
 class LabBench:
-    """Runs lab tests over the realisations, in parallel processes; means per quantity."""
+    """Runs lab tests over the realisations, in parallel processes; means per quantity.
+
+    One process pool serves every evaluation (workers keep their compiled
+    kernels); ``close()`` it, or use the bench as a context manager.
+    """
 
     def __init__(self, seeds: list[int], grains: GrainSpec, workers: int | None = None):
         self.seeds = list(seeds)
-        self.grains = grains.model_dump()
+        self.grains = grains
         self.workers = workers or os.cpu_count() or 1
+        self._pool: ProcessPoolExecutor | None = None
+
+    def __enter__(self) -> LabBench:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def close(self) -> None:
+        if self._pool is not None:
+            self._pool.shutdown()
+            self._pool = None
 
     def measure(self, recipe: materials.RockRecipe, tests: tuple[str, ...],
                 ) -> tuple[dict[str, float], list[dict[str, Any]]]:
         """Mean of each reported quantity over the seeds, and every test's summary."""
-        data = recipe.model_dump(mode="json")
-        jobs = [(t, s, data, self.grains) for t in tests for s in self.seeds]
+        jobs = [(t, s, recipe, self.grains) for t in tests for s in self.seeds]
         if self.workers > 1 and len(jobs) > 1:
-            with ProcessPoolExecutor(max_workers=min(self.workers, len(jobs))) as pool:
-                runs = list(pool.map(_lab_value, jobs))
+            if self._pool is None:
+                self._pool = ProcessPoolExecutor(max_workers=self.workers)
+            runs = list(self._pool.map(_lab_value, jobs))
         else:
             runs = [_lab_value(j) for j in jobs]
         means = {}
@@ -189,10 +205,15 @@ def calibrate(config: CalibrationConfig, recipe: materials.RockRecipe, *,
     ``history`` (one row per evaluation), ``achieved`` (means of the final
     recipe, with K_IC and permeability), ``per_seed`` and ``converged``.
     """
+    say = log or (lambda _msg: None)
+    with LabBench(config.seeds, config.grains, config.workers) as bench:
+        return _calibrate(config, recipe, bench, say)
+
+
+def _calibrate(config: CalibrationConfig, recipe: materials.RockRecipe, bench: LabBench,
+               say: Callable[[str], None]) -> dict[str, Any]:
     from scipy.optimize import root
 
-    say = log or (lambda _msg: None)
-    bench = LabBench(config.seeds, config.grains, config.workers)
     targets = config.targets.model_dump()
     history: list[dict[str, Any]] = []
 
@@ -240,7 +261,7 @@ def calibrate(config: CalibrationConfig, recipe: materials.RockRecipe, *,
     factors = {name: best[name] for name in FACTORS}
     say(f"best: evaluation {best['evaluation']} (largest error {best['max_error']:.1%})")
 
-    a0 = _calibrate_aperture(recipe, factors, config, bench, targets["permeability_m2"])
+    a0 = _calibrate_aperture(recipe, factors, bench, targets["permeability_m2"])
     final = scaled_recipe(recipe, factors, initial_aperture_m=a0, name=config.name)
     say("measuring the calibrated recipe (UCS, BTS, NSCB, permeability)...")
     achieved, runs = bench.measure(final, ("ucs", "bts", "nscb", "permeability"))
@@ -262,7 +283,7 @@ class _Stop(Exception):
     """Converged, or the evaluation budget is spent."""
 
 
-def _calibrate_aperture(recipe, factors, config, bench, target: float) -> float:
+def _calibrate_aperture(recipe, factors, bench, target: float) -> float:
     """a0 from one constant-head test per seed: k ~ a0^3 on an intact assembly."""
     start_a0 = recipe.hydraulic.initial_aperture_m
     means, _ = bench.measure(scaled_recipe(recipe, factors), ("permeability",))
@@ -280,8 +301,6 @@ def write_calibration(result: dict[str, Any], config: CalibrationConfig, out: st
               f"{config.grains.max_edge_mm:g} mm (zone {config.grains.zone_size_mm:g} mm).\n"
               f"# Factors on the start recipe: "
               + ", ".join(f"{k} {v:.4f}" for k, v in result["factors"].items()) + "\n")
-    import tomli_w
-
     recipe_path = write_text(out / f"{recipe.name}.toml",
                              header + tomli_w.dumps(recipe.model_dump(mode="json")))
     rows = []

@@ -230,7 +230,7 @@ def labtest(
     seed: Annotated[int | None, typer.Option(help="Seed of the grain structure.")] = None,
 ) -> None:
     """A virtual laboratory test (paper Table 3): curve, crack pattern, summary.json."""
-    from grainfrac.labtests import TEST_KINDS, load_lab_test_config, run_labtest
+    from grainfrac.labtests import TEST_KINDS, load_lab_test_config
     from grainfrac.labtests.config import lab_test_config
 
     if test not in TEST_KINDS:
@@ -242,7 +242,7 @@ def labtest(
         else:
             cfg = lab_test_config(**{k: v for k, v in overrides.items() if v is not None})
         recipe = cfg.recipe(config.parent if config is not None else Path.cwd())
-        summary = _run_labtest_with_progress(cfg, recipe, out, run_labtest)
+        summary = _run_labtest_with_progress(cfg, recipe, out)
     except GrainfracError as exc:
         _fail(exc)
     table = Table(title=f"{test.upper()} {cfg.run_name} ({recipe.name})")
@@ -258,8 +258,10 @@ def labtest(
                   + (", curve.csv, cracks.csv, figures/)" if test != "permeability" else ")"))
 
 
-def _run_labtest_with_progress(cfg, recipe, out: Path, run_labtest) -> dict:
+def _run_labtest_with_progress(cfg, recipe, out: Path) -> dict:
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from grainfrac.labtests import run_labtest
 
     if cfg.test == "permeability":
         with console.status("constant-head test..."):

@@ -25,7 +25,7 @@ from grainfrac.labtests.formulas import (
 from grainfrac.labtests.platens import LoadingCurve, PlatenTest, closing_platen, first_peak
 from grainfrac.loading.boundary import Loads
 from grainfrac.physics.model import MechanicalModel
-from grainfrac.units import GPA, MPA
+from grainfrac.units import GPA, MM, MPA
 
 # UCS: E (tangent) and nu are fitted between these fractions of the UCS (paper: at 50 %).
 TANGENT_WINDOW = (0.4, 0.6)
@@ -149,8 +149,8 @@ def reduce_nscb(curve: LoadingCurve, assembly: GrainAssembly, config: LabTestCon
     spec = config.specimen_config().specimen
     load = curve.array("load")
     peak, found = first_peak(load, config.loading.peak_drop_fraction)
-    radius = spec.diameter_mm * 1e-3 / 2
-    notch, span = spec.notch_length_mm * 1e-3, spec.support_span_mm * 1e-3
+    radius = spec.diameter_mm * MM / 2
+    notch, span = spec.notch_length_mm * MM, spec.support_span_mm * MM
     kic = nscb_fracture_toughness(float(load[peak]), radius, assembly.mesh.thickness, notch, span)
     return {"kic_MPa_sqrt_m": kic / MPA, "peak_load_kN": float(load[peak]) / 1e3,
             "geometry_factor": nscb_geometry_factor(span, radius, notch),
@@ -164,7 +164,7 @@ def build_test(config: LabTestConfig, assembly: GrainAssembly) -> PlatenTest:
     if config.test == "bts":
         return bts_test(assembly)
     if config.test == "nscb":
-        span = config.specimen_config().specimen.support_span_mm * 1e-3
+        span = config.specimen_config().specimen.support_span_mm * MM
         return nscb_test(assembly, span)
     raise ValueError(f"{config.test} is not a platen test")
 
