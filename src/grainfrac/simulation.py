@@ -30,7 +30,7 @@ from grainfrac.materials import RockRecipe
 from grainfrac.physics import flow, scda
 from grainfrac.physics.coupled import HydroMechanicalSolver
 from grainfrac.physics.model import MechanicalModel, build_mechanical_model
-from grainfrac.physics.solver import MechanicsSolver, NumericalBlowUp
+from grainfrac.physics.solver import STATE_ARRAYS, MechanicsSolver, NumericalBlowUp
 from grainfrac.scenario import (
     DrillOutStage,
     EquilibrateStage,
@@ -325,10 +325,7 @@ class Run:
     def checkpoint(self) -> None:
         s = self.solver
         arrays: dict[str, np.ndarray] = {
-            name: getattr(s, name) for name in (
-                "u", "v", "stress", "bonded", "status", "sigma_n", "tau", "contact_pressure",
-                "released", "energies", "eigenstrain", "eigenstrain_rate", "initial_strain",
-                "opening_offset")
+            name: getattr(s, name) for name in STATE_ARRAYS
         }
         arrays["loads_external"] = s.loads.external
         arrays["loads_fixed"] = s.loads.fixed
@@ -378,9 +375,7 @@ class Run:
             fill, model = self._scda_parts(stage)
             self.solver = MechanicsSolver(model)
         s = self.solver
-        for name in ("u", "v", "stress", "bonded", "status", "sigma_n", "tau",
-                     "contact_pressure", "released", "energies", "eigenstrain",
-                     "eigenstrain_rate", "initial_strain", "opening_offset"):
+        for name in STATE_ARRAYS:
             getattr(s, name)[...] = arrays[name]
         s.loads.external[...] = arrays["loads_external"]
         s.loads.fixed[...] = arrays["loads_fixed"]

@@ -20,6 +20,12 @@ ENERGY_KEYS = ("boundary_work", "damping_work", "friction_work", "bond_energy_re
                "platen_work", "expansion_work", "fluid_work", "energy_removed")
 
 
+# The solver's evolving state: what a checkpoint saves and a rejected step restores.
+STATE_ARRAYS = ("u", "v", "stress", "bonded", "status", "sigma_n", "tau", "contact_pressure",
+                "released", "energies", "eigenstrain", "eigenstrain_rate", "initial_strain",
+                "opening_offset")
+
+
 class NumericalBlowUp(GrainfracError):
     """The explicit scheme diverged (NaN or runaway velocities)."""
 
@@ -142,6 +148,32 @@ class MechanicsSolver:
                 f"velocities ran away at step {self.step_count} (t = {self.time:.6g} s): "
                 f"max |v| = {vmax:.3g} m/s > {self.velocity_limit:g} m/s"
             )
+
+    # -- state in memory (step rejection) ------------------------------------------
+    def save_state(self) -> dict:
+        """A copy of everything :meth:`cycle` changes, for :meth:`restore_state`."""
+        return {
+            "arrays": {name: getattr(self, name).copy() for name in STATE_ARRAYS},
+            "external": self.loads.external.copy(),
+            "platens": [(p.position, p.reaction) for p in self.loads.platens],
+            "time": self.time,
+            "step_count": self.step_count,
+            "n_cracks": len(self.cracks.contact),
+        }
+
+    def restore_state(self, saved: dict) -> None:
+        """Go back to a state taken by :meth:`save_state` (cracks formed since are dropped)."""
+        for name, value in saved["arrays"].items():
+            getattr(self, name)[...] = value
+        self.loads.external[...] = saved["external"]
+        for p, (position, reaction) in zip(self.loads.platens, saved["platens"], strict=True):
+            p.position, p.reaction = position, reaction
+        self.time = saved["time"]
+        self.step_count = saved["step_count"]
+        n = saved["n_cracks"]
+        for record in (self.cracks.contact, self.cracks.time, self.cracks.mode,
+                       self.cracks.energy):
+            del record[n:]
 
     # -- diagnostics --------------------------------------------------------------
     def unbalanced_force_ratio(self) -> float:
