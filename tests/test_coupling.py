@@ -94,7 +94,7 @@ def test_rejected_step_is_undone_and_halved(coupled, monkeypatch):
 
 def test_default_hybrid_injects_through_breakdown(tmp_path):
     """The quick start's hybrid run (Case 2, 90 ml/min, seed 0) breaks down and keeps
-    going without a blow-up; step halving stays rare."""
+    going without a blow-up."""
     scenario = demo_scenarios(0)["hybrid"]
     summary = run_scenario(scenario, scenario.recipe(), tmp_path / "hybrid")
     history = np.genfromtxt(tmp_path / "hybrid" / "history.csv", delimiter=",", names=True,

@@ -9,9 +9,8 @@ never restricts ``dt``; accuracy does, so ``dt`` is a parameter.
 
 from __future__ import annotations
 
-import dataclasses
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -167,7 +166,7 @@ class HydroMechanicalSolver:
 
     def _advance_controlled(self, dt: float, injection_rate: float, depth: int) -> None:
         mech_saved = self.mechanics.save_state()
-        fluid_saved = dataclasses.replace(self.state, pressure=self.state.pressure.copy(),
+        fluid_saved = replace(self.state, pressure=self.state.pressure.copy(),
                                           volume=self.state.volume.copy(),
                                           content=self.state.content.copy())
         try:
