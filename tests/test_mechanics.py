@@ -193,8 +193,10 @@ def test_patch_recovers_elastic_constants(patch):
 # 2. single contact
 # ---------------------------------------------------------------------------------
 def _law(u_n, du_s, tau_old, bonded, allow_failure=True):
+    """The brittle law (no softening); its first five results."""
     return kernels.contact_law(u_n, du_s, tau_old, QQ["kn"], QQ["ks"], QQ["tan_phi"],
-                               QQ["cohesion"], QQ["tensile_strength"], bonded, allow_failure)
+                               QQ["cohesion"], QQ["tensile_strength"], bonded, allow_failure,
+                               0.0, 0.0, 0.0, 0.0)[:5]
 
 
 def test_contact_tensile_failure():
@@ -334,7 +336,24 @@ def bts_assembly() -> GrainAssembly:
     return _assembly(BTS_SPEC)
 
 
-def test_energy_balance_load_unload_fail(bts_assembly):
+def _softening_recipe(g_tensile: float, g_shear: float) -> materials.RockRecipe:
+    """Table 2 with fracture energies (J/m2) on every contact pair."""
+    recipe = materials.load_recipe("strathbogie-granite")
+    contacts = {name: props.model_copy(update={"tensile_fracture_energy_J_per_m2": g_tensile,
+                                               "shear_fracture_energy_J_per_m2": g_shear})
+                for name, props in recipe.contacts.items()}
+    return recipe.model_copy(update={"contacts": contacts})
+
+
+@pytest.mark.parametrize("contacts", ["brittle", "softening"])
+def test_energy_balance_load_unload_fail(bts_assembly, contacts):
+    """Work in = stored + damping + friction + bond energy, brittle or softening bonds.
+
+    Softening bonds (G_I 20, G_II 200 J/m2) dissipate their fracture energy as they
+    soften; that work is booked with the bond energy.
+    """
+    if contacts == "softening":
+        bts_assembly = _assembly(BTS_SPEC, _softening_recipe(20.0, 200.0))
     model = build_mechanical_model(bts_assembly)
     upper, lower = _bts_platens(bts_assembly, model)
     y_top, y_bottom = upper.position, lower.position

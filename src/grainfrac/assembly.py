@@ -129,6 +129,8 @@ class GrainAssembly:
     interface_friction_angle: np.ndarray
     interface_cohesion: np.ndarray
     interface_tensile_strength: np.ndarray
+    interface_tensile_fracture_energy: np.ndarray
+    interface_shear_fracture_energy: np.ndarray
 
     @property
     def n_grains(self) -> int:
@@ -259,6 +261,12 @@ def build_assembly(config: SpecimenConfig, recipe: materials.RockRecipe) -> Grai
         interface_friction_angle=c_draw["friction_angle_rad"],
         interface_cohesion=cohesion,
         interface_tensile_strength=tensile,
+        # Fracture energies are the table values: the Weibull scatter of the
+        # strengths already spreads the softening displacements 2 G / strength.
+        interface_tensile_fracture_energy=np.where(
+            fissure, 0.0, ctab.tensile_fracture_energy_J_per_m2[pair]),
+        interface_shear_fracture_energy=np.where(
+            fissure, 0.0, ctab.shear_fracture_energy_J_per_m2[pair]),
     )
 
 

@@ -129,6 +129,13 @@ class ContactProperties(StrictModel):
     friction_angle_deg: float = Field(ge=0, lt=90, description="friction angle phi [deg]")
     cohesion_MPa: float = Field(ge=0, description="cohesion c [MPa]")
     tensile_strength_MPa: float = Field(ge=0, description="tensile strength sigma_T [MPa]")
+    tensile_fracture_energy_J_per_m2: float = Field(
+        default=0.0, ge=0, le=1.0e4,
+        description="mode-I fracture energy G_I of linear softening [J/m2]; 0: brittle "
+                    "(the paper's Coulomb slip joint)")
+    shear_fracture_energy_J_per_m2: float = Field(
+        default=0.0, ge=0, le=1.0e5,
+        description="mode-II fracture energy G_II of linear softening [J/m2]; 0: brittle")
 
     @classmethod
     def mean(cls, a: ContactProperties, b: ContactProperties) -> ContactProperties:
@@ -423,6 +430,8 @@ class ContactTable:
     friction_angle_rad: np.ndarray
     cohesion_Pa: np.ndarray
     tensile_strength_Pa: np.ndarray
+    tensile_fracture_energy_J_per_m2: np.ndarray
+    shear_fracture_energy_J_per_m2: np.ndarray
 
 
 def _frozen(values: list[float]) -> np.ndarray:
@@ -483,6 +492,9 @@ def contact_table(recipe: RockRecipe) -> ContactTable:
         friction_angle_rad=_frozen([p.friction_angle_deg * DEG for p in props]),
         cohesion_Pa=_frozen([p.cohesion_MPa * MPA for p in props]),
         tensile_strength_Pa=_frozen([p.tensile_strength_MPa * MPA for p in props]),
+        tensile_fracture_energy_J_per_m2=_frozen(
+            [p.tensile_fracture_energy_J_per_m2 for p in props]),
+        shear_fracture_energy_J_per_m2=_frozen([p.shear_fracture_energy_J_per_m2 for p in props]),
     )
 
 

@@ -66,8 +66,19 @@ def element_forces(u, element_nodes, dndx, dndy, area, lam, mu, thickness, force
 
 @njit(cache=True)
 def contact_law(u_n, du_s, tau_old, kn, ks, tan_phi, cohesion, tensile_strength, bonded,
-                allow_failure=True):
-    """Coulomb slip with tensile cut-off for one sub-contact (stresses, Pa).
+                allow_failure, damage, plastic_opening, opening_to_fail, slip_to_fail):
+    """Coulomb slip with tensile cut-off and linear softening for one sub-contact (Pa).
+
+    A bonded contact whose ``opening_to_fail`` / ``slip_to_fail`` is zero is
+    brittle: it breaks the step its tensile or Coulomb strength is exceeded
+    (3DEC's Coulomb slip joint). Otherwise it softens: one damage D in [0, 1)
+    scales both strengths by (1 - D) and grows with the inelastic opening and
+    slip, dD = du_p / opening_to_fail + ds_p / slip_to_fail. With
+    ``opening_to_fail = 2 G_I / sigma_T`` the work of a pure opening to failure
+    is the mode-I fracture energy G_I, and ``slip_to_fail = 2 G_II / c`` gives
+    G_II in pure shear. The inelastic opening u_p stays in the bond
+    (sigma_n = -kn (u_n - u_p)); at D = 1 the bond breaks. A softened bond that
+    fails in shear while in tension is counted a tensile crack.
 
     Parameters
     ----------
@@ -78,31 +89,71 @@ def contact_law(u_n, du_s, tau_old, kn, ks, tan_phi, cohesion, tensile_strength,
     tan_phi, cohesion, tensile_strength : strength (residual friction kept after failure).
     bonded : whether the bond is intact.
     allow_failure : if False, intact bonds stay elastic whatever the stress.
+    damage, plastic_opening : softening state of the bond (-, m).
+    opening_to_fail, slip_to_fail : inelastic opening and slip that exhaust the bond (m).
 
     Returns
     -------
-    sigma_n, tau, new_status, slip_work_density, released_energy_density
+    sigma_n, tau, new_status, slip_work_density, released_energy_density,
+    softening_work_density, damage, plastic_opening
         ``sigma_n`` compression positive; ``new_status`` is INTACT if nothing
-        broke this call, else TENSILE or SHEAR; energies per unit area (J/m2).
+        broke this call, else TENSILE or SHEAR; energies per unit area (J/m2):
+        friction work, elastic energy released at the break, and work dissipated
+        by softening this call.
     """
-    sigma_n = -kn * u_n
+    sigma_n = -kn * (u_n - plastic_opening) if bonded else -kn * u_n
     tau = tau_old + ks * du_s
     status = INTACT
-    released = 0.0
+    slip_work = 0.0
+    softening_work = 0.0
     if bonded:
         if not allow_failure:
-            return sigma_n, tau, INTACT, 0.0, 0.0
-        if -sigma_n > tensile_strength:
+            return sigma_n, tau, INTACT, 0.0, 0.0, 0.0, damage, plastic_opening
+        t_limit = (1.0 - damage) * tensile_strength
+        if -sigma_n > t_limit:
             status = TENSILE
-        elif abs(tau) > cohesion + sigma_n * tan_phi:
-            status = SHEAR
+            # A softening slope steeper than kn would snap back: brittle instead.
+            if opening_to_fail > 0.0 and kn * opening_to_fail > tensile_strength:
+                dp = (-sigma_n - t_limit) / (kn - tensile_strength / opening_to_fail)
+                d_new = damage + dp / opening_to_fail
+                if d_new < 1.0:
+                    status = INTACT
+                    t_new = (1.0 - d_new) * tensile_strength
+                    softening_work += 0.5 * (t_limit + t_new) * dp
+                    damage = d_new
+                    plastic_opening += dp
+                    sigma_n = -t_new
         if status == INTACT:
-            return sigma_n, tau, INTACT, 0.0, 0.0
+            limit = (1.0 - damage) * cohesion + sigma_n * tan_phi
+            if abs(tau) > limit:
+                status = SHEAR
+                if slip_to_fail > 0.0 and ks * slip_to_fail > cohesion and limit > 0.0:
+                    ds = (abs(tau) - limit) / (ks - cohesion / slip_to_fail)
+                    d_new = damage + ds / slip_to_fail
+                    if d_new < 1.0:
+                        status = INTACT
+                        new_limit = (1.0 - d_new) * cohesion + sigma_n * tan_phi
+                        work = 0.5 * (limit + new_limit) * ds
+                        if sigma_n > 0.0:
+                            slip_work = sigma_n * tan_phi * ds
+                            work -= slip_work
+                        softening_work += work
+                        damage = d_new
+                        tau = new_limit if tau > 0.0 else -new_limit
+                # A bond softened by opening loses its cohesion too; its last
+                # shear slip under tension ends a mode-I crack.
+                if status == SHEAR and damage > 0.0 and sigma_n < 0.0:
+                    status = TENSILE
+        if status == INTACT:
+            return sigma_n, tau, INTACT, slip_work, 0.0, softening_work, damage, plastic_opening
         before = 0.5 * (sigma_n * sigma_n / kn + tau * tau / ks)
+        # Broken: the faces meet where they were bonded; the inelastic opening goes.
+        sigma_n = -kn * u_n
+        damage = 1.0
+        plastic_opening = 0.0
     else:
         before = 0.0
     # Unbonded (or just broken): no tension, friction only.
-    slip_work = 0.0
     if sigma_n <= 0.0:
         sigma_n = 0.0
         tau = 0.0
@@ -113,17 +164,18 @@ def contact_law(u_n, du_s, tau_old, kn, ks, tan_phi, cohesion, tensile_strength,
             tau = limit if tau > 0.0 else -limit
             if not bonded:
                 slip_work = limit * excess / ks
+    released = 0.0
     if bonded:
         after = 0.5 * (sigma_n * sigma_n / kn + tau * tau / ks)
         released = before - after
-    return sigma_n, tau, status, slip_work, released
+    return sigma_n, tau, status, slip_work, released, softening_work, damage, plastic_opening
 
 
 @njit(cache=True)
 def contact_forces(
     u, v, dt, contact_nodes, normal, tangent, contact_area,
-    kn, ks, tan_phi, cohesion, tensile_strength,
-    bonded, status, sigma_n, tau, pressure_on_contact,
+    kn, ks, tan_phi, cohesion, tensile_strength, opening_to_fail, slip_to_fail,
+    bonded, status, sigma_n, tau, damage, plastic_opening, pressure_on_contact,
     released, force, failed_now, allow_failure, opening_offset,
 ):
     """Add contact spring forces and fluid pressure forces to ``force``.
@@ -134,10 +186,12 @@ def contact_forces(
     grain boundaries; the wall misfit for an SCDA plug inserted after loading).
     A fluid pressure ``p`` pushes the two faces apart (force ``p A`` on each).
     Returns the frictional work of this step (J), the number of contacts that
-    broke, and the work of the fluid pressure on the faces (J, p A du_n).
+    broke, the work of the fluid pressure on the faces (J, p A du_n) and the
+    work dissipated by softening bonds (J).
     """
     friction_work = 0.0
     fluid_work = 0.0
+    softening_work = 0.0
     n_failed = 0
     for c in range(contact_nodes.shape[0]):
         a = contact_nodes[c, 0]
@@ -150,10 +204,13 @@ def contact_forces(
         du_s = ((v[b, 0] - v[a, 0]) * tx + (v[b, 1] - v[a, 1]) * ty) * dt
         du_n = ((v[b, 0] - v[a, 0]) * nx + (v[b, 1] - v[a, 1]) * ny) * dt
         fluid_work += pressure_on_contact[c] * contact_area[c] * du_n
-        sn, ts, new_status, w_slip, e_rel = contact_law(
+        sn, ts, new_status, w_slip, e_rel, w_soft, d_c, up_c = contact_law(
             u_n, du_s, tau[c], kn[c], ks[c], tan_phi[c], cohesion[c],
-            tensile_strength[c], bonded[c], allow_failure,
+            tensile_strength[c], bonded[c], allow_failure, damage[c], plastic_opening[c],
+            opening_to_fail[c], slip_to_fail[c],
         )
+        damage[c] = d_c
+        plastic_opening[c] = up_c
         if new_status != INTACT:
             bonded[c] = False
             status[c] = new_status
@@ -163,6 +220,7 @@ def contact_forces(
         sigma_n[c] = sn
         tau[c] = ts
         friction_work += w_slip * contact_area[c]
+        softening_work += w_soft * contact_area[c]
         # Traction on face b (first grain pushes b along +n when compressed).
         fn = (sn + pressure_on_contact[c]) * contact_area[c]
         fs = ts * contact_area[c]
@@ -172,7 +230,7 @@ def contact_forces(
         force[b, 1] += fy
         force[a, 0] -= fx
         force[a, 1] -= fy
-    return friction_work, n_failed, fluid_work
+    return friction_work, n_failed, fluid_work, softening_work
 
 
 @njit(cache=True)
@@ -255,7 +313,8 @@ def run_steps(
     n_steps, dt, alpha, u, v, force, stress, external, mass, fixed, prescribed_velocity,
     element_nodes, dndx, dndy, area, lam, mu, thickness,
     contact_nodes, normal, tangent, contact_area, kn, ks, tan_phi, cohesion,
-    tensile_strength, bonded, status, sigma_n, tau, pressure_on_contact, released,
+    tensile_strength, opening_to_fail, slip_to_fail, bonded, status, sigma_n, tau, damage,
+    plastic_opening, pressure_on_contact, released,
     platen_node_xy, platen_nodes, platen_offsets, platen_axis, platen_side,
     platen_position, platen_velocity, platen_stiffness, platen_reaction, platen_node_force,
     failed_contact, failed_step, energies, allow_failure, velocity_limit,
@@ -264,8 +323,8 @@ def run_steps(
     """Advance ``n_steps`` explicit steps without returning to Python.
 
     ``energies`` accumulates [external work, damping work, friction work,
-    released bond energy, platen work, expansion work, fluid work, energy removed
-    (not touched here)]. The eigenstrain grows
+    bond energy (released at breaks and dissipated by softening), platen work,
+    expansion work, fluid work, energy removed (not touched here)]. The eigenstrain grows
     by ``eigenstrain_rate dt`` per step; the work it does on the body is
     ``-A t (sxx + syy) d(eigenstrain)``. Broken contacts are appended to
     ``failed_contact`` / ``failed_step`` (step index within this call).
@@ -287,10 +346,11 @@ def run_steps(
             e = expanding[i]
             energies[5] -= (area[e] * thickness * (stress[e, 0] + stress[e, 1])
                             * eigenstrain_rate[e] * dt)
-        w_fric, n_failed, w_fluid = contact_forces(
+        w_fric, n_failed, w_fluid, w_soft = contact_forces(
             u, v, dt, contact_nodes, normal, tangent, contact_area, kn, ks, tan_phi, cohesion,
-            tensile_strength, bonded, status, sigma_n, tau, pressure_on_contact, released,
-            force, failed_now, allow_failure, opening_offset,
+            tensile_strength, opening_to_fail, slip_to_fail, bonded, status, sigma_n, tau,
+            damage, plastic_opening, pressure_on_contact, released, force, failed_now,
+            allow_failure, opening_offset,
         )
         for i in range(n_failed):
             c = failed_now[i]
@@ -299,6 +359,7 @@ def run_steps(
             n_failed_total += 1
             energies[3] += released[c]
         energies[2] += w_fric
+        energies[3] += w_soft
         energies[6] += w_fluid
         for p in range(platen_axis.shape[0]):
             lo = platen_offsets[p]

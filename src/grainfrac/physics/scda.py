@@ -144,6 +144,8 @@ def build_scda_model(assembly: GrainAssembly, fill: ScdaFill, *, safety: float =
         cohesion=np.concatenate((rock.cohesion, np.full(w, c.cohesion_MPa * MPA))),
         tensile_strength=np.concatenate((rock.tensile_strength,
                                          np.full(w, c.tensile_strength_MPa * MPA))),
+        tensile_fracture_energy=np.concatenate((rock.tensile_fracture_energy, np.zeros(w))),
+        shear_fracture_energy=np.concatenate((rock.shear_fracture_energy, np.zeros(w))),
         bonded=np.concatenate((rock.initially_bonded, np.ones(w, dtype=bool))),
         safety=safety,
     )
@@ -262,8 +264,8 @@ def _copy_state(src: MechanicsSolver, dst: MechanicsSolver, n_nodes: int, n_cont
     rock_el = min(len(src.stress), len(dst.stress))  # the plug's elements come after
     for name in ("stress", "eigenstrain", "initial_strain"):
         getattr(dst, name)[:rock_el] = getattr(src, name)[:rock_el]
-    for name in ("bonded", "status", "sigma_n", "tau", "released", "contact_pressure",
-                 "opening_offset"):
+    for name in ("bonded", "status", "sigma_n", "tau", "damage", "plastic_opening", "released",
+                 "contact_pressure", "opening_offset"):
         getattr(dst, name)[:n_contacts] = getattr(src, name)[:n_contacts]
     dst.energies[:] = src.energies
     dst.time = src.time

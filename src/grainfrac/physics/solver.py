@@ -21,9 +21,9 @@ ENERGY_KEYS = ("boundary_work", "damping_work", "friction_work", "bond_energy_re
 
 
 # The solver's evolving state: what a checkpoint saves and a rejected step restores.
-STATE_ARRAYS = ("u", "v", "stress", "bonded", "status", "sigma_n", "tau", "contact_pressure",
-                "released", "energies", "eigenstrain", "eigenstrain_rate", "initial_strain",
-                "opening_offset")
+STATE_ARRAYS = ("u", "v", "stress", "bonded", "status", "sigma_n", "tau", "damage",
+                "plastic_opening", "contact_pressure", "released", "energies", "eigenstrain",
+                "eigenstrain_rate", "initial_strain", "opening_offset")
 
 
 class NumericalBlowUp(GrainfracError):
@@ -84,6 +84,8 @@ class MechanicsSolver:
         self.status = np.zeros(c, dtype=np.int64)
         self.sigma_n = np.zeros(c)
         self.tau = np.zeros(c)
+        self.damage = np.zeros(c)
+        self.plastic_opening = np.zeros(c)
         self.contact_pressure = np.zeros(c)
         self.released = np.zeros(c)
         m = len(model.element_nodes)
@@ -124,8 +126,9 @@ class MechanicsSolver:
             m.element_nodes, m.dndx, m.dndy, m.element_area, m.lam, m.mu, m.thickness,
             m.contact_nodes, m.contact_normal, m.contact_tangent, m.contact_area,
             m.normal_stiffness, m.shear_stiffness, m.tan_friction, m.cohesion,
-            m.tensile_strength, self.bonded, self.status, self.sigma_n, self.tau,
-            self.contact_pressure, self.released,
+            m.tensile_strength, m.opening_to_fail, m.slip_to_fail, self.bonded, self.status,
+            self.sigma_n, self.tau, self.damage, self.plastic_opening, self.contact_pressure,
+            self.released,
             m.node_xy, pn, po, pa, ps, ppos, pvel, pstiff, preac, pnf,
             self._failed_contact, self._failed_step, self.energies, self.allow_failure,
             self.velocity_limit, self.eigenstrain, self.eigenstrain_rate, self.initial_strain,

@@ -423,6 +423,8 @@ def kgd_assembly(config: KGDConfig, seed: int = 0) -> tuple[GrainAssembly, np.nd
         interface_friction_angle=np.where(plane, 0.0, ctab.friction_angle_rad[0]),
         interface_cohesion=np.where(plane, 0.0, strong),
         interface_tensile_strength=np.where(plane, 0.0, strong),
+        interface_tensile_fracture_energy=np.zeros(nf),
+        interface_shear_fracture_energy=np.zeros(nf),
     )
     return assembly, plane
 
