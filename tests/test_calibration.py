@@ -20,8 +20,13 @@ BASE = materials.load_recipe("strathbogie-granite")
 
 
 def test_scaled_recipe_scales_what_the_table_says():
-    r = scaled_recipe(BASE, {"stiffness": 2.0, "shear_ratio": 0.5, "strength": 0.25,
-                             "friction": 2.0}, initial_aperture_m=3e-7, name="x")
+    softening = BASE.model_copy(update={"contacts": {
+        name: c.model_copy(update={"tensile_fracture_energy_J_per_m2": 10.0,
+                                   "shear_fracture_energy_J_per_m2": 100.0})
+        for name, c in BASE.contacts.items()}})
+    r = scaled_recipe(softening, {"stiffness": 2.0, "shear_ratio": 0.5, "strength": 0.25,
+                                  "friction": 2.0, "fracture_energy": 3.0},
+                      initial_aperture_m=3e-7, name="x")
     q0, q = BASE.contacts["Q-Q"], r.contacts["Q-Q"]
     quartz0, quartz = BASE.minerals[2], r.minerals[2]
     assert quartz.youngs_modulus_GPa == pytest.approx(2 * quartz0.youngs_modulus_GPa)
@@ -31,6 +36,8 @@ def test_scaled_recipe_scales_what_the_table_says():
     assert q.cohesion_MPa == pytest.approx(q0.cohesion_MPa / 4)
     assert math.tan(math.radians(q.friction_angle_deg)) == pytest.approx(
         2 * math.tan(math.radians(q0.friction_angle_deg)))
+    assert (q.tensile_fracture_energy_J_per_m2, q.shear_fracture_energy_J_per_m2) == (
+        pytest.approx(30.0), pytest.approx(300.0))
     assert r.hydraulic.initial_aperture_m == 3e-7 and r.name == "x"
 
 
@@ -43,6 +50,7 @@ def _factors(recipe: materials.RockRecipe) -> dict[str, float]:
         "strength": q.tensile_strength_MPa / q0.tensile_strength_MPa,
         "friction": math.tan(math.radians(q.friction_angle_deg))
         / math.tan(math.radians(q0.friction_angle_deg)),
+        "fracture_energy_J_per_m2": q.tensile_fracture_energy_J_per_m2,
     }
 
 
@@ -55,7 +63,7 @@ def _power_law_bench(self, recipe, tests):
         "poisson_ratio": 0.2315 * f["shear_ratio"] ** -0.15,
         "bts_MPa": 10.85 * f["strength"] * f["friction"] ** 0.05,
         "ucs_MPa": 85.48 * f["strength"] * f["friction"] ** 0.6,
-        "kic_MPa_sqrt_m": 0.67 * f["strength"],
+        "kic_MPa_sqrt_m": 0.67 * f["strength"] * (1 + f["fracture_energy_J_per_m2"] / 30) ** 0.4,
         "permeability_m2": 8.9e-20 * (a0 / 2e-7) ** 3,
     }
     return means, [means]
@@ -63,7 +71,7 @@ def _power_law_bench(self, recipe, tests):
 
 def test_calibrate_converges_on_a_coupled_response(monkeypatch):
     monkeypatch.setattr(LabBench, "measure", _power_law_bench)
-    every = ["stiffness", "shear_ratio", "strength", "friction"]
+    every = ["stiffness", "shear_ratio", "strength", "friction", "fracture_energy"]
     config = validate(CalibrationConfig, {"seeds": [0], "tolerance": 0.01, "factors": every,
                                           "max_evaluations": 30})
     messages = []
@@ -71,8 +79,12 @@ def test_calibrate_converges_on_a_coupled_response(monkeypatch):
     print("\n" + "\n".join(messages))
     print(result["errors"])
     assert result["converged"]
-    for key in ("ucs_MPa", "bts_MPa", "youngs_modulus_GPa", "poisson_ratio"):
+    for key in ("ucs_MPa", "bts_MPa", "kic_MPa_sqrt_m", "youngs_modulus_GPa", "poisson_ratio"):
         assert abs(result["errors"][key]) < 0.01
+    # A brittle start recipe starts from Irwin's G_I of the targets (~100 J/m2).
+    g = result["recipe"].contact("F-Q").tensile_fracture_energy_J_per_m2
+    assert g / result["factors"]["fracture_energy"] == pytest.approx(
+        1.35e6**2 * (1 - 0.24**2) / 17.13e9)
     assert abs(result["errors"]["permeability_m2"]) < 1e-9  # k ~ a0^3 solved exactly
     assert len(result["history"]) <= 30
 

@@ -13,7 +13,12 @@ factor             multiplies                                    target
 ``shear_ratio``    contact ks (so ks / kn)                       Poisson's ratio nu
 ``strength``       contact tensile strengths and cohesions       BTS
 ``friction``       tangent of the contact friction angles        UCS
+``fracture_energy``  contact fracture energies G_I and G_II      K_IC (NSCB)
 =================  ============================================  ==================
+
+A brittle start recipe (every G_I zero) that solves for ``fracture_energy``
+starts from Irwin's G_I = K_IC^2 (1 - nu^2) / E of the targets on every
+contact pair, with G_II = ``shear_to_tensile_fracture_energy`` x G_I.
 
 Why these pairs (measured on Table 2, seed 0): the Brazilian peak is half
 tensile, half shear failure (halving sigma_T lowers it 32 %, halving c 33 %),
@@ -34,9 +39,9 @@ By default ``shear_ratio`` is not solved for: Table 2 already gives nu within
 (+0.5 %), and the Newton steps this weak sensitivity asks for threw nu to 0.38
 and 0.45 in a measured run. Add it to ``factors`` to solve for it anyway. The permeability
 ``k ~ a0^3`` of the constant-head test is exact on an intact assembly, so a0
-is solved in closed form. K_IC (NSCB) is measured with the final recipe and
-reported against its target, as the paper did (its K_IC verified, not
-calibrated, the model).
+is solved in closed form. Unless ``fracture_energy`` is solved for, K_IC
+(NSCB) is measured with the final recipe and reported against its target, as
+the paper did (its K_IC verified, not calibrated, the model).
 """
 
 from __future__ import annotations
@@ -59,15 +64,18 @@ from grainfrac.errors import GrainfracError
 from grainfrac.io.config import StrictModel, read_toml, source_path, validate
 from grainfrac.io.files import write_csv, write_json, write_text, write_toml
 from grainfrac.labtests.config import LAB_GRAINS, LabTestConfig
+from grainfrac.units import GPA, MPA
 
-FACTORS = ("stiffness", "shear_ratio", "strength", "friction")
+FACTORS = ("stiffness", "shear_ratio", "strength", "friction", "fracture_energy")
 # Target quantity, the lab test that measures it, and the sign of d log(target) / d log(factor).
 PAIRING = {
     "stiffness": ("youngs_modulus_GPa", "ucs", +1.0),
     "shear_ratio": ("poisson_ratio", "ucs", -1.0),
     "strength": ("bts_MPa", "bts", +1.0),
     "friction": ("ucs_MPa", "ucs", +1.0),
+    "fracture_energy": ("kic_MPa_sqrt_m", "nscb", +1.0),
 }
+FactorName = Literal["stiffness", "shear_ratio", "strength", "friction", "fracture_energy"]
 REPORTED = ("ucs_MPa", "bts_MPa", "kic_MPa_sqrt_m", "youngs_modulus_GPa", "poisson_ratio",
             "permeability_m2")
 LABELS = {"ucs_MPa": "UCS (MPa)", "bts_MPa": "BTS (MPa)", "kic_MPa_sqrt_m": "K_IC (MPa m^0.5)",
@@ -98,10 +106,13 @@ class CalibrationConfig(StrictModel):
     tolerance: float = Field(0.02, gt=0, lt=0.5,
                              description="stop when every calibrated mean is this close")
     max_evaluations: int = Field(16, ge=1, le=200)
-    factors: list[Literal["stiffness", "shear_ratio", "strength", "friction"]] = Field(
+    factors: list[FactorName] = Field(
         default_factory=lambda: ["stiffness", "strength", "friction"], min_length=1,
         description="factors to solve for (each with its paired target); the others stay 1")
     workers: int | None = Field(None, ge=1, le=64, description="processes (default: cores)")
+    shear_to_tensile_fracture_energy: float = Field(
+        10.0, ge=0, le=1000,
+        description="G_II / G_I when fracture_energy starts from a brittle recipe")
 
     @field_validator("factors")
     @classmethod
@@ -139,6 +150,8 @@ def scaled_recipe(recipe: materials.RockRecipe, factors: dict[str, float], *,
         contact["cohesion_MPa"] *= f["strength"]
         tan_phi = f["friction"] * math.tan(math.radians(contact["friction_angle_deg"]))
         contact["friction_angle_deg"] = math.degrees(math.atan(tan_phi))
+        contact["tensile_fracture_energy_J_per_m2"] *= f["fracture_energy"]
+        contact["shear_fracture_energy_J_per_m2"] *= f["fracture_energy"]
     if initial_aperture_m is not None:
         data["hydraulic"]["initial_aperture_m"] = initial_aperture_m
     if name is not None:
@@ -218,6 +231,9 @@ def _calibrate(config: CalibrationConfig, recipe: materials.RockRecipe, bench: L
     history: list[dict[str, Any]] = []
 
     unknowns = [name for name in FACTORS if name in config.factors]
+    if "fracture_energy" in unknowns:
+        recipe = _with_start_fracture_energy(recipe, config)
+    tests = ("ucs", "bts", "nscb") if "fracture_energy" in unknowns else ("ucs", "bts")
 
     def factors_of(x: np.ndarray) -> dict[str, float]:
         return {name: math.exp(PAIRING[name][2] * xi) for name, xi in zip(unknowns, x,
@@ -233,7 +249,7 @@ def _calibrate(config: CalibrationConfig, recipe: materials.RockRecipe, bench: L
             raise _Stop
         factors = factors_of(x)
         start = time.perf_counter()
-        means, _ = bench.measure(scaled_recipe(recipe, factors), ("ucs", "bts"))
+        means, _ = bench.measure(scaled_recipe(recipe, factors), tests)
         r = np.array([math.log(means[PAIRING[n][0]] / targets[PAIRING[n][0]])
                       for n in unknowns])
         if not np.all(np.isfinite(r)):
@@ -279,6 +295,24 @@ def _calibrate(config: CalibrationConfig, recipe: materials.RockRecipe, bench: L
     }
 
 
+def _with_start_fracture_energy(recipe: materials.RockRecipe, config: CalibrationConfig
+                                ) -> materials.RockRecipe:
+    """A brittle recipe gets Irwin's G_I of the targets (and G_II) on every pair."""
+    if any(c.tensile_fracture_energy_J_per_m2 > 0 for c in recipe.contacts.values()):
+        return recipe
+    t = config.targets
+    g_tensile = ((t.kic_MPa_sqrt_m * MPA) ** 2 * (1.0 - t.poisson_ratio ** 2)
+                 / (t.youngs_modulus_GPa * GPA))
+    g_shear = config.shear_to_tensile_fracture_energy * g_tensile
+    data = recipe.model_dump(mode="json")
+    # Every pair explicitly: mixed pairs would otherwise average like pairs only.
+    data["contacts"] = {name: {**recipe.contact(name).model_dump(mode="json"),
+                               "tensile_fracture_energy_J_per_m2": g_tensile,
+                               "shear_fracture_energy_J_per_m2": g_shear}
+                        for name in recipe.pair_names()}
+    return validate(materials.RockRecipe, data)
+
+
 class _Stop(Exception):
     """Converged, or the evaluation budget is spent."""
 
@@ -318,8 +352,8 @@ def write_calibration(result: dict[str, Any], config: CalibrationConfig, out: st
         err = "-" if r["error_percent"] is None else f"{r['error_percent']:+.2f}"
         lines.append(f"| {r['quantity']} | {r['laboratory']:.4g} | {sim} | {err} |")
     table_md = write_text(out / "table.md", "\n".join(lines) + "\n")
-    history_cols = ["evaluation", *FACTORS, "ucs_MPa", "bts_MPa", "youngs_modulus_GPa",
-                    "poisson_ratio", "max_error", "wall_time_s"]
+    history_cols = ["evaluation", *FACTORS, "ucs_MPa", "bts_MPa", "kic_MPa_sqrt_m",
+                    "youngs_modulus_GPa", "poisson_ratio", "max_error", "wall_time_s"]
     history = write_csv(out / "history.csv",
                         [{k: row.get(k) for k in history_cols} for row in result["history"]],
                         history_cols)
