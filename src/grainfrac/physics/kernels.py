@@ -187,11 +187,12 @@ def contact_forces(
     A fluid pressure ``p`` pushes the two faces apart (force ``p A`` on each).
     Returns the frictional work of this step (J), the number of contacts that
     broke, the work of the fluid pressure on the faces (J, p A du_n) and the
-    work dissipated by softening bonds (J).
+    bond energy of this step (J: dissipated by softening and released at
+    breaks), which is also added per contact to ``released``.
     """
     friction_work = 0.0
     fluid_work = 0.0
-    softening_work = 0.0
+    bond_work = 0.0
     n_failed = 0
     for c in range(contact_nodes.shape[0]):
         a = contact_nodes[c, 0]
@@ -211,16 +212,18 @@ def contact_forces(
         )
         damage[c] = d_c
         plastic_opening[c] = up_c
+        # A bond's energy: what softening dissipated, plus what its break released.
+        bond = (w_soft + e_rel) * contact_area[c]
+        released[c] += bond
+        bond_work += bond
         if new_status != INTACT:
             bonded[c] = False
             status[c] = new_status
-            released[c] = e_rel * contact_area[c]
             failed_now[n_failed] = c
             n_failed += 1
         sigma_n[c] = sn
         tau[c] = ts
         friction_work += w_slip * contact_area[c]
-        softening_work += w_soft * contact_area[c]
         # Traction on face b (first grain pushes b along +n when compressed).
         fn = (sn + pressure_on_contact[c]) * contact_area[c]
         fs = ts * contact_area[c]
@@ -230,7 +233,7 @@ def contact_forces(
         force[b, 1] += fy
         force[a, 0] -= fx
         force[a, 1] -= fy
-    return friction_work, n_failed, fluid_work, softening_work
+    return friction_work, n_failed, fluid_work, bond_work
 
 
 @njit(cache=True)
@@ -346,7 +349,7 @@ def run_steps(
             e = expanding[i]
             energies[5] -= (area[e] * thickness * (stress[e, 0] + stress[e, 1])
                             * eigenstrain_rate[e] * dt)
-        w_fric, n_failed, w_fluid, w_soft = contact_forces(
+        w_fric, n_failed, w_fluid, w_bond = contact_forces(
             u, v, dt, contact_nodes, normal, tangent, contact_area, kn, ks, tan_phi, cohesion,
             tensile_strength, opening_to_fail, slip_to_fail, bonded, status, sigma_n, tau,
             damage, plastic_opening, pressure_on_contact, released, force, failed_now,
@@ -357,9 +360,8 @@ def run_steps(
             failed_contact[n_failed_total] = c
             failed_step[n_failed_total] = step
             n_failed_total += 1
-            energies[3] += released[c]
         energies[2] += w_fric
-        energies[3] += w_soft
+        energies[3] += w_bond
         energies[6] += w_fluid
         for p in range(platen_axis.shape[0]):
             lo = platen_offsets[p]
