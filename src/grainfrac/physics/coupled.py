@@ -30,6 +30,12 @@ CRACK_COMPLIANCE_FACTOR = 1.0
 MAX_HALVINGS = 5
 PRESSURE_JUMP_FRACTION = 0.10
 PRESSURE_JUMP_FLOOR = 1.0e6
+# A half step whose worst jump is still above this fraction of its parent's is
+# accepted. Measured (HS 18 ml/min, Case 1, seed 1): after breakdown a crack-tip
+# node flipped between 2 and 6 MPa at every step size down to dt / 32, so each
+# step ran all 5 halvings (12381 rejections for 1560 steps, 10x the wall time).
+# A jump that time resolution can fix shrinks about in proportion to the step.
+UNRESOLVED_JUMP = 0.8
 
 
 @dataclass
@@ -152,9 +158,11 @@ class HydroMechanicalSolver:
         :func:`pressure_jump_limit`, leaves a node with negative fluid content, or
         whose mechanics runs away, is undone and done again as two half steps
         (down to ``dt / 2**MAX_HALVINGS``; at that depth a jump is accepted and a
-        runaway is reported). Measured on the default hybrid run (seed 0,
-        0.01 ms): a crack-tip node reached 135 MPa with 10.4 MPa in the well
-        before the mechanics blew up; with the compliance rule of
+        runaway is reported). A half step whose worst jump is not below
+        ``UNRESOLVED_JUMP`` of its parent's is accepted: halving cannot fix it.
+        Measured on the default hybrid run (seed 0, 0.01 ms): a crack-tip node
+        reached 135 MPa with 10.4 MPa in the well before the mechanics blew up;
+        with the compliance rule of
         :meth:`pore_compliance` 71 of 2000 steps were halved and none ran away.
         """
         self._advance_controlled(dt, injection_rate, 0)
@@ -164,14 +172,19 @@ class HydroMechanicalSolver:
         h.injected_volume.append(self.state.injected)
         h.n_cracks.append(len(self.mechanics.cracks.contact))
 
-    def _advance_controlled(self, dt: float, injection_rate: float, depth: int) -> None:
+    def _advance_controlled(self, dt: float, injection_rate: float, depth: int,
+                            parent_jump: float = math.inf) -> None:
         mech_saved = self.mechanics.save_state()
         fluid_saved = replace(self.state, pressure=self.state.pressure.copy(),
                                           volume=self.state.volume.copy(),
                                           content=self.state.content.copy())
+        jump = math.inf
         try:
             self._step(dt, injection_rate)
-            accepted = self._acceptable(fluid_saved.pressure)
+            jump, content_ok = self._step_check(fluid_saved.pressure)
+            # A jump that halving the step hardly shrinks is not a matter of time
+            # resolution (a crack-tip node opening and closing): accept it.
+            accepted = content_ok and (jump <= 1.0 or jump > UNRESOLVED_JUMP * parent_jump)
         except NumericalBlowUp:
             if depth >= MAX_HALVINGS:
                 raise
@@ -183,16 +196,17 @@ class HydroMechanicalSolver:
         self._apply_pressure()
         self.rejected_steps += 1
         for _ in range(2):
-            self._advance_controlled(0.5 * dt, injection_rate, depth + 1)
+            self._advance_controlled(0.5 * dt, injection_rate, depth + 1, jump)
 
-    def _acceptable(self, before: np.ndarray) -> bool:
-        """Whether the step just taken kept every pressure change within
-        :func:`pressure_jump_limit` and left no fluid node with negative content."""
+    def _step_check(self, before: np.ndarray) -> tuple[float, bool]:
+        """The largest pressure change of the step just taken over its
+        :func:`pressure_jump_limit` (<= 1 is acceptable), and whether every free
+        fluid node kept a non-negative content."""
         free = ~self.network.fixed
         jump = np.abs(self.state.pressure - before)[free]
         limit = pressure_jump_limit(np.maximum(np.abs(before[free]), self.well_pressure))
-        return bool(np.all(jump <= limit)) and bool(
-            np.all(self.state.content[free] >= -1e-6 * self.state.volume[free]))
+        ratio = float(np.max(jump / limit)) if jump.size else 0.0
+        return ratio, bool(np.all(self.state.content[free] >= -1e-6 * self.state.volume[free]))
 
     def _step(self, dt: float, injection_rate: float) -> None:
         flow.implicit_step(self.network, self.state, self.aperture(), dt, self.fluid,
