@@ -47,7 +47,8 @@ def _factors(recipe: materials.RockRecipe) -> dict[str, float]:
     return {
         "stiffness": stiffness,
         "shear_ratio": q.shear_stiffness_GPa_per_m / q0.shear_stiffness_GPa_per_m / stiffness,
-        "strength": q.tensile_strength_MPa / q0.tensile_strength_MPa,
+        "tensile": q.tensile_strength_MPa / q0.tensile_strength_MPa,
+        "cohesion": q.cohesion_MPa / q0.cohesion_MPa,
         "friction": math.tan(math.radians(q.friction_angle_deg))
         / math.tan(math.radians(q0.friction_angle_deg)),
         "fracture_energy_J_per_m2": q.tensile_fracture_energy_J_per_m2,
@@ -61,9 +62,9 @@ def _power_law_bench(self, recipe, tests):
     means = {
         "youngs_modulus_GPa": 16.93 * f["stiffness"] * f["shear_ratio"] ** 0.02,
         "poisson_ratio": 0.2315 * f["shear_ratio"] ** -0.15,
-        "bts_MPa": 10.85 * f["strength"] * f["friction"] ** 0.05,
-        "ucs_MPa": 85.48 * f["strength"] * f["friction"] ** 0.6,
-        "kic_MPa_sqrt_m": 0.67 * f["strength"] * (1 + f["fracture_energy_J_per_m2"] / 30) ** 0.4,
+        "bts_MPa": 10.85 * f["tensile"] * f["friction"] ** 0.05,
+        "ucs_MPa": 85.48 * f["cohesion"] ** 0.8 * f["tensile"] ** 0.2 * f["friction"] ** 0.6,
+        "kic_MPa_sqrt_m": 0.67 * f["tensile"] * (1 + f["fracture_energy_J_per_m2"] / 30) ** 0.4,
         "permeability_m2": 8.9e-20 * (a0 / 2e-7) ** 3,
     }
     return means, [means]
@@ -89,6 +90,35 @@ def test_calibrate_converges_on_a_coupled_response(monkeypatch):
     assert len(result["history"]) <= 30
 
 
+def test_default_factors_solve_bts_by_tension_and_ucs_by_cohesion(monkeypatch):
+    """The default unknowns (stiffness, tensile_strength, cohesion) reach E, BTS and UCS
+    from Table 2, which needs sigma_T down and c up (opposite directions)."""
+    monkeypatch.setattr(LabBench, "measure", _power_law_bench)
+    config = validate(CalibrationConfig, {"seeds": [0], "tolerance": 0.01})
+    assert config.factors == ["stiffness", "tensile_strength", "cohesion"]
+    result = calibrate(config, BASE)
+    print(result["factors"], result["errors"])
+    assert result["converged"]
+    for key in ("ucs_MPa", "bts_MPa", "youngs_modulus_GPa"):
+        assert abs(result["errors"][key]) < 0.01
+    assert result["factors"]["tensile_strength"] < 1.0 < result["factors"]["cohesion"]
+
+
+def test_scaled_recipe_scales_tension_and_cohesion_apart():
+    r = scaled_recipe(BASE, {"tensile_strength": 0.5, "cohesion": 3.0})
+    q0, q = BASE.contacts["F-F"], r.contacts["F-F"]
+    assert q.tensile_strength_MPa == pytest.approx(0.5 * q0.tensile_strength_MPa)
+    assert q.cohesion_MPa == pytest.approx(3.0 * q0.cohesion_MPa)
+    assert q.friction_angle_deg == pytest.approx(q0.friction_angle_deg)
+
+
+def test_two_factors_for_one_target_are_refused():
+    with pytest.raises(ConfigError) as info:
+        validate(CalibrationConfig, {"factors": ["strength", "tensile_strength"]})
+    assert "factors" in str(info.value) and "bts_MPa" in str(info.value)
+    print(info.value)
+
+
 def test_write_calibration_writes_recipe_table_history(monkeypatch, tmp_path):
     monkeypatch.setattr(LabBench, "measure", _power_law_bench)
     config = validate(CalibrationConfig, {"seeds": [0], "name": "demo-rock"})
@@ -98,7 +128,16 @@ def test_write_calibration_writes_recipe_table_history(monkeypatch, tmp_path):
     assert recipe.name == "demo-rock"
     assert recipe.hydraulic.initial_aperture_m == pytest.approx(result["initial_aperture_m"])
     table = paths["table_md"].read_text()
-    assert "UCS (MPa)" in table and "K_IC" in table
+    assert "UCS (MPa)" in table and "K_IC" in table and "realisations (min-max)" in table
+
+
+def test_seed_spread_shows_realisations_a_mean_hides():
+    runs = [{"test": "bts", "bts_MPa": v} for v in (1.2, 15.7, 2.5)] + [
+        {"test": "ucs", "ucs_MPa": 120.0, "poisson_ratio": None}]
+    spread = calibration.seed_spread(runs)
+    assert spread["bts_MPa"] == {"min": 1.2, "max": 15.7}
+    assert spread["ucs_MPa"] == {"min": 120.0, "max": 120.0}
+    assert "poisson_ratio" not in spread and "kic_MPa_sqrt_m" not in spread
 
 
 @pytest.mark.parametrize("data,field", [

@@ -34,6 +34,47 @@ TABLE3 = {"ucs_MPa": 120.94, "bts_MPa": 6.38, "kic_MPa_sqrt_m": 1.35,
 # ---------------------------------------------------------------------------------
 # data reduction
 # ---------------------------------------------------------------------------------
+def test_diametral_split_needs_one_crack_through_the_centre():
+    from grainfrac.labtests.mechanical import diametral_split
+
+    r, link = 0.019, 0.0019
+    y = np.arange(-15, 15.5, 1.0) * 1e-3
+    through = np.column_stack((0.002 * np.sin(y * 400), y))  # zig-zag along the load
+    assert diametral_split(through, r, link)
+    gap = through[np.abs(through[:, 1]) > 0.003]  # a 6 mm intact bridge at the centre
+    assert not diametral_split(gap, r, link)
+    across = through[:, ::-1]  # the same crack across the load
+    assert not diametral_split(across, r, link)
+    off_axis = through + [0.012, 0.0]  # through, but outside the central band
+    assert not diametral_split(off_axis, r, link)
+    assert not diametral_split(np.empty((0, 2)), r, link)
+
+
+def test_bts_is_read_at_the_split_not_at_the_lock_up():
+    """After the split the halves of a 2D disk lock up and carry more load: not strength."""
+    from grainfrac.labtests.mechanical import reduce_bts
+    from grainfrac.labtests.platens import LoadingCurve
+
+    cfg = lab_test_config("bts", seed=0)
+    load = np.concatenate((np.linspace(0, 8e3, 40), np.linspace(8e3, 20e3, 60)))
+    curve = LoadingCurve(time=list(range(100)), closure=list(range(100)), load=list(load),
+                         n_cracks=[0] * 100, extra={"split": [0.0] * 40 + [1.0] * 60})
+
+    class Box:  # the reducer reads only the disk's extent and thickness
+        class mesh:
+            thickness = 0.019
+
+            class grains:
+                vertices = np.array([[-0.019, -0.019], [0.019, 0.019]])
+
+    at_split = reduce_bts(curve, Box, cfg)
+    assert at_split["split_index"] == 40 and at_split["peak_load_kN"] == pytest.approx(8.0)
+    assert at_split["bts_MPa"] == pytest.approx(2 * 8e3 / (math.pi * 0.038 * 0.019) / 1e6)
+    curve.extra["split"] = [0.0] * 100  # never split: the first peak (here the maximum)
+    no_split = reduce_bts(curve, Box, cfg)
+    assert not no_split["split_found"] and no_split["peak_load_kN"] == pytest.approx(20.0)
+
+
 def test_brazilian_and_darcy_formulas():
     # 10 kN on a 38 x 19 mm disk; Q = 1e-11 m3/s through 1 cm2 over 1 cm at 1 MPa, water.
     assert brazilian_tensile_strength(1e4, 0.038, 0.019) == pytest.approx(

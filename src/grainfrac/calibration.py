@@ -12,18 +12,26 @@ factor             multiplies                                    target
 ``stiffness``      grain Young's moduli, contact kn and ks       Young's modulus E
 ``shear_ratio``    contact ks (so ks / kn)                       Poisson's ratio nu
 ``strength``       contact tensile strengths and cohesions       BTS
+``tensile_strength``  contact tensile strengths                  BTS
+``cohesion``       contact cohesions                             UCS
 ``friction``       tangent of the contact friction angles        UCS
 ``fracture_energy``  contact fracture energies G_I and G_II      K_IC (NSCB)
 =================  ============================================  ==================
+
+Each target may be solved for by one factor only (``strength`` or
+``tensile_strength`` for the BTS; ``cohesion`` or ``friction`` for the UCS).
 
 A brittle start recipe (every G_I zero) that solves for ``fracture_energy``
 starts from Irwin's G_I = K_IC^2 (1 - nu^2) / E of the targets on every
 contact pair, with G_II = ``shear_to_tensile_fracture_energy`` x G_I.
 
-Why these pairs (measured on Table 2, seed 0): the Brazilian peak is half
-tensile, half shear failure (halving sigma_T lowers it 32 %, halving c 33 %),
-so tension and cohesion scale together; friction strengthens the contacts that
-are pressed together, which the UCS test has and the BTS test hardly.
+Why these pairs (measured on Table 2, seed 0): the BTS is read at the
+diametral split (:func:`grainfrac.labtests.mechanical.reduce_bts`), which the
+tensile strength sets (0.4 x sigma_T with 2 x c: 6.87 MPa, 0.35 x sigma_T:
+6.07 MPa), while the UCS follows the cohesion (2 x c: 115 MPa at 0.4 x
+sigma_T) and leaves E and nu alone. ``tensile_strength`` with ``cohesion`` is
+therefore the default pair. Friction also raises the UCS, but about 1.75 x
+tan(phi) makes the pre-peak curve nonlinear (E falls, nu rises to 0.44).
 
 In log space (residual ``log(measured / target)`` of the mean over the grain
 realisations, unknown ``log(factor)``) this pairing makes the Jacobian close to
@@ -66,16 +74,20 @@ from grainfrac.io.files import write_csv, write_json, write_text, write_toml
 from grainfrac.labtests.config import LAB_GRAINS, LabTestConfig
 from grainfrac.units import GPA, MPA
 
-FACTORS = ("stiffness", "shear_ratio", "strength", "friction", "fracture_energy")
+FACTORS = ("stiffness", "shear_ratio", "strength", "tensile_strength", "cohesion", "friction",
+           "fracture_energy")
 # Target quantity, the lab test that measures it, and the sign of d log(target) / d log(factor).
 PAIRING = {
     "stiffness": ("youngs_modulus_GPa", "ucs", +1.0),
     "shear_ratio": ("poisson_ratio", "ucs", -1.0),
     "strength": ("bts_MPa", "bts", +1.0),
+    "tensile_strength": ("bts_MPa", "bts", +1.0),
+    "cohesion": ("ucs_MPa", "ucs", +1.0),
     "friction": ("ucs_MPa", "ucs", +1.0),
     "fracture_energy": ("kic_MPa_sqrt_m", "nscb", +1.0),
 }
-FactorName = Literal["stiffness", "shear_ratio", "strength", "friction", "fracture_energy"]
+FactorName = Literal["stiffness", "shear_ratio", "strength", "tensile_strength", "cohesion",
+                     "friction", "fracture_energy"]
 REPORTED = ("ucs_MPa", "bts_MPa", "kic_MPa_sqrt_m", "youngs_modulus_GPa", "poisson_ratio",
             "permeability_m2")
 LABELS = {"ucs_MPa": "UCS (MPa)", "bts_MPa": "BTS (MPa)", "kic_MPa_sqrt_m": "K_IC (MPa m^0.5)",
@@ -107,7 +119,7 @@ class CalibrationConfig(StrictModel):
                              description="stop when every calibrated mean is this close")
     max_evaluations: int = Field(16, ge=1, le=200)
     factors: list[FactorName] = Field(
-        default_factory=lambda: ["stiffness", "strength", "friction"], min_length=1,
+        default_factory=lambda: ["stiffness", "tensile_strength", "cohesion"], min_length=1,
         description="factors to solve for (each with its paired target); the others stay 1")
     workers: int | None = Field(None, ge=1, le=64, description="processes (default: cores)")
     shear_to_tensile_fracture_energy: float = Field(
@@ -119,6 +131,11 @@ class CalibrationConfig(StrictModel):
     def _unique(cls, factors: list[str]) -> list[str]:
         if len(set(factors)) != len(factors):
             raise ValueError("each factor may be listed once")
+        targets = [PAIRING[f][0] for f in factors]
+        for target in set(targets):
+            pair = [f for f in factors if PAIRING[f][0] == target]
+            if len(pair) > 1:
+                raise ValueError(f"{' and '.join(pair)} both solve for {target}: keep one")
         return factors
 
     def recipe(self, base_dir: Path | None = None) -> materials.RockRecipe:
@@ -146,8 +163,8 @@ def scaled_recipe(recipe: materials.RockRecipe, factors: dict[str, float], *,
     for contact in data["contacts"].values():
         contact["normal_stiffness_GPa_per_m"] *= f["stiffness"]
         contact["shear_stiffness_GPa_per_m"] *= f["stiffness"] * f["shear_ratio"]
-        contact["tensile_strength_MPa"] *= f["strength"]
-        contact["cohesion_MPa"] *= f["strength"]
+        contact["tensile_strength_MPa"] *= f["strength"] * f["tensile_strength"]
+        contact["cohesion_MPa"] *= f["strength"] * f["cohesion"]
         tan_phi = f["friction"] * math.tan(math.radians(contact["friction_angle_deg"]))
         contact["friction_angle_deg"] = math.degrees(math.atan(tan_phi))
         contact["tensile_fracture_energy_J_per_m2"] *= f["fracture_energy"]
@@ -284,6 +301,7 @@ def _calibrate(config: CalibrationConfig, recipe: materials.RockRecipe, bench: L
     errors = {k: achieved[k] / targets[k] - 1.0 for k in REPORTED if k in achieved}
     return {
         "recipe": final,
+        "spread": seed_spread(runs),
         "factors": factors,
         "initial_aperture_m": a0,
         "history": history,
@@ -293,6 +311,20 @@ def _calibrate(config: CalibrationConfig, recipe: materials.RockRecipe, bench: L
         "converged": best["max_error"] <= config.tolerance,
         "targets": targets,
     }
+
+
+def seed_spread(runs: list[dict[str, Any]]) -> dict[str, dict[str, float]]:
+    """Smallest and largest value over the realisations of each reported quantity.
+
+    A mean on target can hide realisations far apart (measured: BTS 1.2, 15.7
+    and 2.5 MPa over seeds 0-2 for a mean of 6.45); the table shows both.
+    """
+    out = {}
+    for key in REPORTED:
+        values = [r[key] for r in runs if r.get(key) is not None]
+        if values:
+            out[key] = {"min": float(min(values)), "max": float(max(values))}
+    return out
 
 
 def _with_start_fracture_energy(recipe: materials.RockRecipe, config: CalibrationConfig
@@ -341,16 +373,21 @@ def write_calibration(result: dict[str, Any], config: CalibrationConfig, out: st
     for key in REPORTED:
         achieved = result["achieved"].get(key)
         target = result["targets"][key]
+        spread = result.get("spread", {}).get(key, {})
         rows.append({"quantity": LABELS[key], "laboratory": target, "simulated": achieved,
                      "error_percent": None if achieved is None
-                     else 100.0 * (achieved / target - 1.0)})
-    table_csv = write_csv(out / "table.csv", rows,
-                          ["quantity", "laboratory", "simulated", "error_percent"])
-    lines = ["| quantity | laboratory | simulated | error % |", "|---|---|---|---|"]
+                     else 100.0 * (achieved / target - 1.0),
+                     "seed_min": spread.get("min"), "seed_max": spread.get("max")})
+    table_csv = write_csv(out / "table.csv", rows, ["quantity", "laboratory", "simulated",
+                                                    "error_percent", "seed_min", "seed_max"])
+    lines = ["| quantity | laboratory | simulated (mean) | error % | realisations (min-max) |",
+             "|---|---|---|---|---|"]
     for r in rows:
         sim = "-" if r["simulated"] is None else f"{r['simulated']:.4g}"
         err = "-" if r["error_percent"] is None else f"{r['error_percent']:+.2f}"
-        lines.append(f"| {r['quantity']} | {r['laboratory']:.4g} | {sim} | {err} |")
+        rng = ("-" if r["seed_min"] is None
+               else f"{r['seed_min']:.4g} - {r['seed_max']:.4g}")
+        lines.append(f"| {r['quantity']} | {r['laboratory']:.4g} | {sim} | {err} | {rng} |")
     table_md = write_text(out / "table.md", "\n".join(lines) + "\n")
     history_cols = ["evaluation", *FACTORS, "ucs_MPa", "bts_MPa", "kic_MPa_sqrt_m",
                     "youngs_modulus_GPa", "poisson_ratio", "max_error", "wall_time_s"]
@@ -366,6 +403,7 @@ def write_calibration(result: dict[str, Any], config: CalibrationConfig, out: st
         "targets": result["targets"],
         "achieved": result["achieved"],
         "errors": result["errors"],
+        "spread": result.get("spread", {}),
         "evaluations": len(result["history"]),
         "seeds": config.seeds,
         "wall_time_s": wall_time_s,
