@@ -297,7 +297,26 @@ class ScdaRecipe(StrictModel):
     density_kg_m3: float = Field(gt=0, description="density [kg/m3]")
     youngs_modulus_GPa: float = Field(gt=0, description="Young's modulus [GPa]")
     poisson_ratio: float = Field(gt=-1, lt=0.5, description="Poisson's ratio [-]")
-    contact: ContactProperties = Field(description="contact properties of SCDA interfaces")
+    contact: ContactProperties = Field(
+        description="contact properties between SCDA elements (paper Table 5)")
+    wall_contact: ContactProperties | None = Field(
+        None, description="SCDA-rock contact properties; default: the SCDA contact's "
+                          "stiffnesses, no friction, cohesion or tensile strength")
+
+    def wall_contact_properties(self) -> ContactProperties:
+        """The SCDA-rock interface: ``wall_contact``, or a smooth unbonded one.
+
+        The paper gives no SCDA-rock properties (Table 5 lists the SCDA's
+        own contacts). By default the interface carries pressure only, as
+        the pressurised borehole of SCDA analyses does: a bond or friction
+        there holds radial crack mouths shut (see ``docs/architecture.md``).
+        """
+        if self.wall_contact is not None:
+            return self.wall_contact
+        return self.contact.model_copy(update={"friction_angle_deg": 0.0, "cohesion_MPa": 0.0,
+                                               "tensile_strength_MPa": 0.0,
+                                               "tensile_fracture_energy_J_per_m2": 0.0,
+                                               "shear_fracture_energy_J_per_m2": 0.0})
 
 
 def _pair_names(codes: list[str] | tuple[str, ...]) -> list[str]:

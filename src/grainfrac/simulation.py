@@ -125,7 +125,7 @@ class Run:
     def expansive_pressure(self) -> float:
         if self.state.model_kind != "scda":
             return 0.0
-        return scda.expansive_pressure(self.solver, self.n_rock_contacts)
+        return scda.expansive_pressure(self.solver, self.n_rock_contacts, self._fill.n_wall)
 
     def tangential_stress_near_well(self) -> float:
         """Mean hoop stress (Pa, compression positive as in paper Fig. 10e) of the rock
