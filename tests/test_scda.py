@@ -83,3 +83,74 @@ def test_resume_during_charging_gives_the_same_result(charged, tmp_path):
     strip = ("wall_time_s",)
     assert {k: v for k, v in resumed.items() if k not in strip} == {
         k: v for k, v in reference.items() if k not in strip}
+
+
+# --------------------------------------------------------------------------- the plug
+def _small_slab():
+    from grainfrac.assembly import build_assembly
+
+    sc = validate(Scenario, CHARGE)
+    return sc, build_assembly(sc.specimen_config(), sc.recipe())
+
+
+def test_plug_blocks_cover_the_borehole_and_touch_the_whole_wall():
+    from grainfrac import materials
+    from grainfrac.physics.scda import scda_fill
+
+    sc, assembly = _small_slab()
+    fill = scda_fill(assembly, materials.load_scda("scda"))
+    mesh = assembly.mesh
+    faces = mesh.boundary_faces["borehole"]
+    r = mesh.grains.outline.borehole_radius
+    # Blocks tile the borehole polygon: their areas add up to it.
+    p = fill.node_xy[fill.element_nodes]
+    area = 0.5 * ((p[:, 1, 0] - p[:, 0, 0]) * (p[:, 2, 1] - p[:, 0, 1])
+                  - (p[:, 2, 0] - p[:, 0, 0]) * (p[:, 1, 1] - p[:, 0, 1]))
+    polygon = 0.5 * len(faces.length) * r**2 * np.sin(2 * np.pi / len(faces.length))
+    print(f"\n{len(area)} blocks, area {area.sum():.4e} m2 vs wall polygon ~{polygon:.4e}; "
+          f"{fill.n_wall} wall and {len(fill.joint_area)} block contacts")
+    assert np.all(area > 0)
+    assert area.sum() == pytest.approx(polygon, rel=0.02)
+    # Every wall face is held at both ends; tributary areas add up to the wall.
+    assert fill.n_wall == 2 * len(faces.length)
+    assert fill.wall_area.sum() == pytest.approx(faces.length.sum() * mesh.thickness)
+    # Wall and block contacts pair coincident points, with unit normals.
+    assert np.allclose(mesh.node_xy[fill.wall_rock_node], fill.node_xy[fill.wall_scda_node],
+                       atol=1e-9)
+    a, b = fill.joint_nodes.T
+    assert np.allclose(fill.node_xy[a], fill.node_xy[b], atol=1e-12)
+    assert np.allclose(np.hypot(*fill.joint_normal.T), 1.0)
+    assert np.allclose(np.hypot(*fill.wall_normal.T), 1.0)
+    # Wall normals point from the rock into the plug (towards the centre).
+    centre = np.asarray(mesh.grains.outline.borehole_center)
+    inward = centre - mesh.node_xy[fill.wall_rock_node]
+    assert np.all(np.sum(inward * fill.wall_normal, axis=1) > 0)
+
+
+def test_scda_wall_is_smooth_and_unbonded_unless_given():
+    from grainfrac import materials
+
+    scda = materials.load_scda("scda")
+    wall = scda.wall_contact_properties()
+    assert (wall.friction_angle_deg, wall.cohesion_MPa, wall.tensile_strength_MPa) == (0, 0, 0)
+    assert wall.normal_stiffness_GPa_per_m == scda.contact.normal_stiffness_GPa_per_m == 217600
+    glued = scda.model_copy(update={"wall_contact": scda.contact})
+    assert glued.wall_contact_properties() == scda.contact
+
+
+def test_a_bonded_wall_holds_radial_crack_mouths_shut(charged, tmp_path):
+    """Why the wall is smooth by default: bonded with the Table 5 SCDA contact
+    (c = 68 MPa), the plug ties the crack mouths and fewer fractures open."""
+    from grainfrac import materials
+
+    scda = materials.load_scda("scda")
+    glued = scda.model_copy(update={"wall_contact": scda.contact}).model_dump(mode="json")
+    data = {**CHARGE, "stages": [CHARGE["stages"][0], {**CHARGE["stages"][1], "scda": glued}]}
+    sc = validate(Scenario, data)
+    bonded = run_scenario(sc, sc.recipe(), tmp_path)
+    smooth = charged[1]
+    print(f"\nradial fractures: smooth wall {smooth['n_radial_fractures']} "
+          f"({smooth['n_cracks']} cracks), bonded wall {bonded['n_radial_fractures']} "
+          f"({bonded['n_cracks']} cracks)")
+    assert bonded["n_radial_fractures"] < smooth["n_radial_fractures"]
+    assert bonded["n_cracks"] < smooth["n_cracks"]
