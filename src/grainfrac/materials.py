@@ -44,7 +44,14 @@ from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
-from pydantic import Field, ValidationError, ValidationInfo, field_validator
+from pydantic import (
+    BaseModel,
+    Field,
+    ValidationError,
+    ValidationInfo,
+    field_validator,
+    model_validator,
+)
 from pydantic_core import InitErrorDetails, PydanticCustomError
 
 from grainfrac.errors import ConfigError
@@ -303,20 +310,29 @@ class ScdaRecipe(StrictModel):
         None, description="SCDA-rock contact properties; default: the SCDA contact's "
                           "stiffnesses, no friction, cohesion or tensile strength")
 
-    def wall_contact_properties(self) -> ContactProperties:
-        """The SCDA-rock interface: ``wall_contact``, or a smooth unbonded one.
+    @model_validator(mode="before")
+    @classmethod
+    def _default_wall(cls, data: Any) -> Any:
+        """The paper gives no SCDA-rock properties (Table 5 lists the SCDA's own
+        contacts). By default the interface carries pressure only, as the
+        pressurised borehole of SCDA analyses does: a bond or friction there
+        holds radial crack mouths shut (see ``docs/architecture.md``). Filled in
+        here, so a written recipe says what was used."""
+        if isinstance(data, dict) and data.get("wall_contact") is None and "contact" in data:
+            contact = data["contact"]
+            if isinstance(contact, BaseModel):
+                contact = contact.model_dump()
+            if isinstance(contact, dict):
+                data = {**data, "wall_contact": {
+                    **contact, "friction_angle_deg": 0.0, "cohesion_MPa": 0.0,
+                    "tensile_strength_MPa": 0.0, "tensile_fracture_energy_J_per_m2": 0.0,
+                    "shear_fracture_energy_J_per_m2": 0.0}}
+        return data
 
-        The paper gives no SCDA-rock properties (Table 5 lists the SCDA's
-        own contacts). By default the interface carries pressure only, as
-        the pressurised borehole of SCDA analyses does: a bond or friction
-        there holds radial crack mouths shut (see ``docs/architecture.md``).
-        """
-        if self.wall_contact is not None:
-            return self.wall_contact
-        return self.contact.model_copy(update={"friction_angle_deg": 0.0, "cohesion_MPa": 0.0,
-                                               "tensile_strength_MPa": 0.0,
-                                               "tensile_fracture_energy_J_per_m2": 0.0,
-                                               "shear_fracture_energy_J_per_m2": 0.0})
+    def wall_contact_properties(self) -> ContactProperties:
+        """The SCDA-rock interface (never None after validation)."""
+        assert self.wall_contact is not None
+        return self.wall_contact
 
 
 def _pair_names(codes: list[str] | tuple[str, ...]) -> list[str]:
