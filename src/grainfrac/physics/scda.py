@@ -9,13 +9,14 @@ element, ``d(eps)/dt = v / R`` (R the borehole radius), which is exactly an
 outward normal velocity ``v`` of the unconstrained plug's boundary; the rock's
 resistance turns it into the expansive pressure.
 
-Decision: blocks, not one continuous plug. A continuous plug bonded to the
-wall is a stiff ring that holds every radial crack mouth shut through its
-wall bonds (c = 68 MPa): measured on the default slab (seed 0), it left
-1-3 radial fractures (Cases 1-4: 3/2/1/2), against 3-4 (4/3/3/4) for a plug
-whose wall could slide. With blocks, the SCDA itself parts where the rock
-opens under it (its contacts fail at sigma_T = 16 MPa), as the hydrating
-agent cracks in a real borehole.
+Decisions: the plug is made of blocks, as the paper's expansive elements
+are, so the Table 5 contacts are the SCDA's own and it can part. The
+SCDA-rock interface is the recipe's ``wall_contact``, smooth and unbonded
+by default: a bonded or frictional wall ties every radial crack mouth to
+the stiff plug and holds it shut. Measured on the default slab, seed 0,
+radial fractures in Cases 1-4: continuous plug with a bonded wall 3/2/1/2,
+blocks with a bonded wall 4/2/1/2, blocks with a 30 deg frictional wall
+4/2/1/2, blocks with the smooth wall 4/3/3/4.
 
 Layout: the plug's nodes and elements are appended after the rock's; its
 contacts after the rock's contacts, the SCDA-rock wall contacts first, then
