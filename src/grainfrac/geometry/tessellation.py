@@ -227,7 +227,9 @@ def _split_holes(poly: shapely.Polygon) -> list[shapely.Polygon]:
 
 
 def _merge_small(pieces: list[shapely.Polygon], min_area: float) -> list[shapely.Polygon]:
-    """Merge pieces below ``min_area`` into the neighbour sharing the longest boundary."""
+    """Merge pieces below ``min_area`` into the neighbour sharing the longest boundary
+    whose union is a simple polygon (next to a small borehole, the union with the
+    longest-shared neighbour can close a ring round the hole)."""
     pieces = list(pieces)
     while True:
         areas = np.array([p.area for p in pieces])
@@ -236,19 +238,21 @@ def _merge_small(pieces: list[shapely.Polygon], min_area: float) -> list[shapely
             return pieces
         i = int(small[np.argmin(areas[small])])
         tree = shapely.STRtree(pieces)
-        best, best_len = -1, 0.0
-        for j in tree.query(pieces[i]):
-            if j == i:
-                continue
-            shared = pieces[i].boundary.intersection(pieces[j].boundary).length
-            if shared > best_len:
-                best, best_len = int(j), shared
-        if best < 0:
+        shared = {int(j): pieces[i].boundary.intersection(pieces[j].boundary).length
+                  for j in tree.query(pieces[i]) if j != i}
+        neighbours = sorted((j for j, length in shared.items() if length > 0),
+                            key=lambda j: (-shared[j], j))
+        if not neighbours:
             raise GeometryError("a grain piece touches no neighbour; specimen too small for grains")
-        merged = shapely.union(pieces[best], pieces[i])
-        if not isinstance(merged, shapely.Polygon) or merged.interiors:
-            raise GeometryError("merging a small grain piece did not give a simple polygon")
-        pieces[best] = merged
+        for j in neighbours:
+            merged = shapely.union(pieces[j], pieces[i])
+            if isinstance(merged, shapely.Polygon) and not merged.interiors:
+                break
+        else:
+            raise GeometryError("a small grain piece cannot be merged into any neighbour "
+                                "without wrapping round the borehole; specimen too small "
+                                "for grains")
+        pieces[j] = merged
         del pieces[i]
 
 
