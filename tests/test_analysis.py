@@ -238,7 +238,8 @@ def test_breakdown_monotone_and_flat_is_none():
     assert breakdown(t, np.full_like(t, 5e6)) is None
     assert breakdown([], []) is None
     assert breakdown_summary(t, 1e6 * t) == {"breakdown_pressure_MPa": None,
-                                            "breakdown_time_s": None}
+                                            "breakdown_time_s": None,
+                                            "breakdown_drop_1ms_fraction": None}
 
 
 def test_breakdown_drop_at_end_and_nan_samples():
@@ -249,7 +250,11 @@ def test_breakdown_drop_at_end_and_nan_samples():
     res = breakdown(t, p2)
     assert res.index == 4 and res.pressure == 8e6
     summary = breakdown_summary(t, p)
-    assert summary == {"breakdown_pressure_MPa": 8.0, "breakdown_time_s": 4.0}
+    # Samples 1 s apart: nothing falls within 1 ms of the peak.
+    assert summary == {"breakdown_pressure_MPa": 8.0, "breakdown_time_s": 4.0,
+                       "breakdown_drop_1ms_fraction": 0.0}
+    fast = breakdown_summary(t * 0.5e-3, p)  # 0.5 ms apart: 8 -> 1 MPa within 1 ms
+    assert fast["breakdown_drop_1ms_fraction"] == pytest.approx(7.0 / 8.0)
     with pytest.raises(ValueError):
         breakdown(t, p[:-1])
 

@@ -173,7 +173,8 @@ def test_analysis_from_the_run_directory_alone_matches_the_summary(reference):
 
     out, summary = reference
     again = analyse_run(out)
-    for key in ("breakdown_pressure_MPa", "breakdown_time_s", "n_cracks", "n_tensile_cracks",
+    for key in ("breakdown_pressure_MPa", "breakdown_time_s", "breakdown_drop_1ms_fraction",
+                "n_cracks", "n_tensile_cracks",
                 "n_shear_cracks", "n_radial_fractures", "fracture_extent_mm", "tortuosity"):
         if summary[key] is None:
             assert again[key] is None, key

@@ -431,6 +431,7 @@ def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
         "stage_times_s": run.state.stage_times,
         "breakdown_pressure_MPa": None,
         "breakdown_time_s": None,
+        "breakdown_drop_1ms_fraction": None,
         "peak_well_pressure_MPa": None,
         "peak_expansive_pressure_MPa": None,
         "injected_volume_ml": None,
@@ -438,9 +439,7 @@ def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
     if run.coupled is not None:
         h = run.coupled.history
         t0 = run.state.injection_start_time or 0.0
-        bd = breakdown_summary(np.asarray(h.time) - t0, np.asarray(h.well_pressure))
-        out["breakdown_pressure_MPa"] = bd["breakdown_pressure_MPa"]
-        out["breakdown_time_s"] = bd["breakdown_time_s"]
+        out.update(breakdown_summary(np.asarray(h.time) - t0, np.asarray(h.well_pressure)))
         out["peak_well_pressure_MPa"] = float(np.max(h.well_pressure)) / 1e6
         out["injected_volume_ml"] = run.coupled.state.injected * 1e6
     if "scda" in run.scenario.stage_kinds:

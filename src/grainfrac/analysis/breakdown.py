@@ -129,6 +129,9 @@ def breakdown(time, pressure, *, drop_fraction: float = 0.05, sustain: float = 0
     return None
 
 
+DROP_WINDOW_S = 1e-3  # how long after breakdown the fall of the well pressure is measured
+
+
 def breakdown_summary(time, pressure, **kwargs) -> dict[str, float | None]:
     """The summary.json breakdown keys (DESIGN.md section 6).
 
@@ -142,13 +145,19 @@ def breakdown_summary(time, pressure, **kwargs) -> dict[str, float | None]:
     Returns
     -------
     dict
-        ``breakdown_pressure_MPa`` and ``breakdown_time_s``, ``None`` where
-        there is no breakdown.
+        ``breakdown_pressure_MPa``, ``breakdown_time_s`` and
+        ``breakdown_drop_1ms_fraction`` (the fraction of the breakdown
+        pressure lost within 1 ms after it: how abrupt the breakdown is,
+        paper Fig. 17d), ``None`` where there is no breakdown.
     """
     result = breakdown(time, pressure, **kwargs)
     if result is None:
-        return {"breakdown_pressure_MPa": None, "breakdown_time_s": None}
-    return {"breakdown_pressure_MPa": result.pressure / 1e6, "breakdown_time_s": result.time}
+        return {"breakdown_pressure_MPa": None, "breakdown_time_s": None,
+                "breakdown_drop_1ms_fraction": None}
+    drop = pressure_drop_after_peak(time, pressure, DROP_WINDOW_S, peak_index=result.index,
+                                    relative=True)
+    return {"breakdown_pressure_MPa": result.pressure / 1e6, "breakdown_time_s": result.time,
+            "breakdown_drop_1ms_fraction": drop}
 
 
 def max_drop_rate(time, pressure) -> float:

@@ -48,7 +48,8 @@ def analyse_run(path: str | Path, *, radius_mm: float | None = None) -> dict[str
     well_radius = 0.5 * specimen.get("borehole_diameter_mm", 0.0) * MM
     zone = config.get("grains", {}).get("zone_size_mm", 2.0) * MM
 
-    out: dict[str, Any] = {"breakdown_pressure_MPa": None, "breakdown_time_s": None}
+    out: dict[str, Any] = {"breakdown_pressure_MPa": None, "breakdown_time_s": None,
+                           "breakdown_drop_1ms_fraction": None}
     stage = np.array(history.get("stage", []))
     inject = stage == "inject"
     if inject.any():

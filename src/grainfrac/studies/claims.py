@@ -52,6 +52,7 @@ NULL_REASONS = {
     "breakdown_pressure_MPa": "no breakdown was detected (no sustained drop of the well "
                               "pressure before injection ended)",
     "breakdown_time_s": "no breakdown was detected",
+    "breakdown_drop_1ms_fraction": "no breakdown was detected",
     "tensile_shear_ratio": "no shear cracks formed, so T/S is undefined",
     "fracture_extent_mm": "no crack cluster is connected to the well",
     "tortuosity": "no fracture through the well to measure",

@@ -40,6 +40,7 @@ PAPER = ("Hybrid SCDA-HS rock pre-conditioning at the grain scale "
          "(paper/hybrid-scda-hs-preconditioning.txt)")
 LABELS = {
     "breakdown_pressure_MPa": "breakdown pressure (MPa)",
+    "breakdown_drop_1ms_fraction": "pressure lost 1 ms after breakdown (fraction)",
     "peak_expansive_pressure_MPa": "peak expansive pressure (MPa)",
     "n_radial_fractures": "radial fractures",
     "fracture_extent_mm": "fracture extent (mm)",
