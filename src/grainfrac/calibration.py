@@ -131,11 +131,13 @@ class CalibrationConfig(StrictModel):
     def _unique(cls, factors: list[str]) -> list[str]:
         if len(set(factors)) != len(factors):
             raise ValueError("each factor may be listed once")
-        targets = [PAIRING[f][0] for f in factors]
-        for target in set(targets):
-            pair = [f for f in factors if PAIRING[f][0] == target]
-            if len(pair) > 1:
-                raise ValueError(f"{' and '.join(pair)} both solve for {target}: keep one")
+        solver_of: dict[str, str] = {}
+        for factor in factors:
+            target = PAIRING[factor][0]
+            if target in solver_of:
+                raise ValueError(f"{solver_of[target]} and {factor} both solve for {target}: "
+                                 "keep one")
+            solver_of[target] = factor
         return factors
 
     def recipe(self, base_dir: Path | None = None) -> materials.RockRecipe:
