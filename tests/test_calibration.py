@@ -112,6 +112,36 @@ def test_scaled_recipe_scales_tension_and_cohesion_apart():
     assert q.friction_angle_deg == pytest.approx(q0.friction_angle_deg)
 
 
+def test_factors_as_a_table_pair_factors_with_other_targets(monkeypatch):
+    """The softening pairing (BTS by cohesion, UCS by friction, K_IC by G_I) from a
+    start point: the factors not solved for keep their start value."""
+    monkeypatch.setattr(LabBench, "measure", _power_law_bench)
+    config = validate(CalibrationConfig, {
+        "seeds": [0], "tolerance": 0.01, "max_evaluations": 30,
+        "factors": {"stiffness": "youngs_modulus_GPa", "cohesion": "bts_MPa",
+                    "friction": "ucs_MPa", "fracture_energy": "kic_MPa_sqrt_m"},
+        "start": {"tensile_strength": 0.8, "friction": 1.2}})
+    result = calibrate(config, BASE)
+    print(result["factors"], result["errors"])
+    assert result["converged"]
+    for key in ("ucs_MPa", "bts_MPa", "kic_MPa_sqrt_m", "youngs_modulus_GPa"):
+        assert abs(result["errors"][key]) < 0.01
+    assert result["factors"]["tensile_strength"] == 0.8  # not solved: stays at its start
+    assert result["factors"]["shear_ratio"] == 1.0
+
+
+@pytest.mark.parametrize("data, words", [
+    ({"factors": {"cohesion": "bts_MPa", "tensile_strength": "bts_MPa"}}, ["bts_MPa", "keep one"]),
+    ({"factors": {"cohesion": "strength_MPa"}}, ["factors"]),
+    ({"start": {"friction": 0.0}}, ["start.friction", "(0, 1000)"]),
+])
+def test_bad_factor_tables_and_starts_are_refused(data, words):
+    with pytest.raises(ConfigError) as info:
+        validate(CalibrationConfig, data)
+    print(info.value)
+    assert all(w in str(info.value) for w in words)
+
+
 def test_two_factors_for_one_target_are_refused():
     with pytest.raises(ConfigError) as info:
         validate(CalibrationConfig, {"factors": ["strength", "tensile_strength"]})

@@ -20,6 +20,17 @@ factor             multiplies                                    target
 
 Each target may be solved for by one factor only (``strength`` or
 ``tensile_strength`` for the BTS; ``cohesion`` or ``friction`` for the UCS).
+``factors`` may also be a table that pairs factors with targets other than the
+table's, and ``start`` sets the factors' starting values (a factor that is not
+solved for keeps its start value). The pairing only chooses which targets are
+solved: the Jacobian is measured, not assumed.
+
+With contact softening the pairs change (measured, seeds 0-2, G_I = 100
+J/m^2 at 0.45 x sigma_T): the tension-softening contacts carry sigma_T while
+they open, so the disk fails when the inclined grain boundaries slide, and the
+BTS follows the cohesion (2 / 1 / 0.5 x c: 21.6 / 13.7 / 10.1 MPa) while K_IC
+hardly moves (1.61 / 1.60 / 1.50). The fracture energy then sets K_IC and the
+friction restores the UCS: ``examples/calibration/strathbogie-2d-softening.toml``.
 
 A brittle start recipe (every G_I zero) that solves for ``fracture_energy``
 starts from Irwin's G_I = K_IC^2 (1 - nu^2) / E of the targets on every
@@ -88,6 +99,11 @@ PAIRING = {
 }
 FactorName = Literal["stiffness", "shear_ratio", "strength", "tensile_strength", "cohesion",
                      "friction", "fracture_energy"]
+TargetName = Literal["ucs_MPa", "bts_MPa", "kic_MPa_sqrt_m", "youngs_modulus_GPa",
+                     "poisson_ratio"]
+# The lab test that measures each calibrated target.
+TEST_OF = {"ucs_MPa": "ucs", "youngs_modulus_GPa": "ucs", "poisson_ratio": "ucs",
+           "bts_MPa": "bts", "kic_MPa_sqrt_m": "nscb"}
 REPORTED = ("ucs_MPa", "bts_MPa", "kic_MPa_sqrt_m", "youngs_modulus_GPa", "poisson_ratio",
             "permeability_m2")
 LABELS = {"ucs_MPa": "UCS (MPa)", "bts_MPa": "BTS (MPa)", "kic_MPa_sqrt_m": "K_IC (MPa m^0.5)",
@@ -118,33 +134,64 @@ class CalibrationConfig(StrictModel):
     tolerance: float = Field(0.02, gt=0, lt=0.5,
                              description="stop when every calibrated mean is this close")
     max_evaluations: int = Field(16, ge=1, le=200)
-    factors: list[FactorName] = Field(
+    factors: list[FactorName] | dict[FactorName, TargetName] = Field(
         default_factory=lambda: ["stiffness", "tensile_strength", "cohesion"], min_length=1,
-        description="factors to solve for (each with its paired target); the others stay 1")
+        description="factors to solve for, each with its default target (list) or the "
+                    "target given (table); the others keep their start value")
+    start: dict[FactorName, float] = Field(
+        default_factory=dict, description="starting value of each factor (default 1)")
     workers: int | None = Field(None, ge=1, le=64, description="processes (default: cores)")
     shear_to_tensile_fracture_energy: float = Field(
         10.0, ge=0, le=1000,
         description="G_II / G_I when fracture_energy starts from a brittle recipe")
 
+    @field_validator("factors", mode="before")
+    @classmethod
+    def _known_targets(cls, factors: Any) -> Any:
+        if isinstance(factors, dict):
+            for factor, target in factors.items():
+                if target not in TEST_OF:
+                    raise ValueError(f"factors.{factor} = {target!r}: the target must be one of "
+                                     + ", ".join(TEST_OF))
+        return factors
+
     @field_validator("factors")
     @classmethod
-    def _unique(cls, factors: list[str]) -> list[str]:
-        if len(set(factors)) != len(factors):
+    def _unique(cls, factors: list[str] | dict[str, str]) -> list[str] | dict[str, str]:
+        if isinstance(factors, list) and len(set(factors)) != len(factors):
             raise ValueError("each factor may be listed once")
         solver_of: dict[str, str] = {}
-        for factor in factors:
-            target = PAIRING[factor][0]
+        for factor, target in _pairs(factors).items():
             if target in solver_of:
                 raise ValueError(f"{solver_of[target]} and {factor} both solve for {target}: "
                                  "keep one")
             solver_of[target] = factor
         return factors
 
+    @field_validator("start")
+    @classmethod
+    def _positive(cls, start: dict[str, float]) -> dict[str, float]:
+        for factor, value in start.items():
+            if not (0.0 < value < 1e3):
+                raise ValueError(f"start.{factor} = {value} must be in (0, 1000)")
+        return start
+
+    def pairing(self) -> dict[str, str]:
+        """Factor -> target it is solved for, in the module's factor order."""
+        pairs = _pairs(self.factors)
+        return {name: pairs[name] for name in FACTORS if name in pairs}
+
     def recipe(self, base_dir: Path | None = None) -> materials.RockRecipe:
         if isinstance(self.rock, materials.RockRecipe):
             return self.rock
         path = source_path(self.rock, base_dir)
         return materials.load_recipe(path if path is not None else self.rock)
+
+
+def _pairs(factors: list[str] | dict[str, str]) -> dict[str, str]:
+    if isinstance(factors, dict):
+        return dict(factors)
+    return {factor: PAIRING[factor][0] for factor in factors}
 
 
 def load_calibration_config(path: str | Path) -> tuple[CalibrationConfig, materials.RockRecipe]:
@@ -249,14 +296,20 @@ def _calibrate(config: CalibrationConfig, recipe: materials.RockRecipe, bench: L
     targets = config.targets.model_dump()
     history: list[dict[str, Any]] = []
 
-    unknowns = [name for name in FACTORS if name in config.factors]
-    if "fracture_energy" in unknowns:
+    pairing = config.pairing()
+    unknowns = list(pairing)
+    start_factors = {name: config.start.get(name, 1.0) for name in FACTORS}
+    if "fracture_energy" in unknowns or "fracture_energy" in config.start:
         recipe = _with_start_fracture_energy(recipe, config)
-    tests = ("ucs", "bts", "nscb") if "fracture_energy" in unknowns else ("ucs", "bts")
+    tests = tuple(t for t in ("ucs", "bts", "nscb") if t in {TEST_OF[v] for v in pairing.values()})
+    # d log(target) / d log(factor) has a known sign for the default pairs; with it the
+    # unknowns move their targets up (a Jacobian close to the identity to start from).
+    sign = {name: PAIRING[name][2] if PAIRING[name][0] == target else 1.0
+            for name, target in pairing.items()}
 
     def factors_of(x: np.ndarray) -> dict[str, float]:
-        return {name: math.exp(PAIRING[name][2] * xi) for name, xi in zip(unknowns, x,
-                                                                           strict=True)}
+        return {**start_factors, **{name: start_factors[name] * math.exp(sign[name] * xi)
+                            for name, xi in zip(unknowns, x, strict=True)}}
 
     seen: dict[tuple[float, ...], np.ndarray] = {}
 
@@ -269,16 +322,14 @@ def _calibrate(config: CalibrationConfig, recipe: materials.RockRecipe, bench: L
         factors = factors_of(x)
         start = time.perf_counter()
         means, _ = bench.measure(scaled_recipe(recipe, factors), tests)
-        r = np.array([math.log(means[PAIRING[n][0]] / targets[PAIRING[n][0]])
-                      for n in unknowns])
+        r = np.array([math.log(means[pairing[n]] / targets[pairing[n]]) for n in unknowns])
         if not np.all(np.isfinite(r)):
             raise GrainfracError(f"calibration: a lab test gave no value at factors {factors}")
-        history.append({"evaluation": len(history) + 1, **dict.fromkeys(FACTORS, 1.0),
-                        **factors, **means,
+        history.append({"evaluation": len(history) + 1, **factors, **means,
                         "max_error": float(np.max(np.abs(np.expm1(r)))),
                         "wall_time_s": time.perf_counter() - start})
         say(f"evaluation {len(history)}: " + ", ".join(
-            f"{PAIRING[n][0]} {means[PAIRING[n][0]]:.4g} ({math.expm1(ri):+.1%})"
+            f"{pairing[n]} {means[pairing[n]]:.4g} ({math.expm1(ri):+.1%})"
             for n, ri in zip(unknowns, r, strict=True)))
         if history[-1]["max_error"] <= config.tolerance:
             raise _Stop
