@@ -20,8 +20,8 @@ factor             multiplies                                    target
 
 Each target may be solved for by one factor only (``strength`` or
 ``tensile_strength`` for the BTS; ``cohesion`` or ``friction`` for the UCS).
-``factors`` may also be a table that pairs factors with targets other than the
-table's, and ``start`` sets the factors' starting values (a factor that is not
+``factors`` may also be a table that pairs factors with targets other than
+those above, and ``start`` sets the factors' starting values (a factor that is not
 solved for keeps its start value). The pairing only chooses which targets are
 solved: the Jacobian is measured, not assumed.
 
