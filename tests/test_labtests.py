@@ -112,6 +112,20 @@ def test_first_peak_ignores_later_reloading_and_single_sample_noise():
     assert not found and index == 5
 
 
+def test_default_first_peak_catches_a_small_fall_before_grain_columns_lock_up():
+    """A UCS curve whose grain-boundary network fails with a 4 % fall, then intact
+    grain columns carry load again (the shape measured at seed 2, softening
+    contacts): the default rule reads the strength at the first peak."""
+    from grainfrac.labtests.config import LoadingSpec
+
+    rise = np.linspace(0.0, 60.0, 30)
+    lock_up = np.linspace(57.5, 249.0, 60)
+    load = np.concatenate([rise, [58.0, 57.6, 57.5], lock_up])
+    index, found = first_peak(load, LoadingSpec().peak_drop_fraction)
+    assert found and load[index] == 60.0
+    assert not first_peak(load, 0.05)[1]  # a 5 % rule reads the lock-up instead
+
+
 # ---------------------------------------------------------------------------------
 # the four tests on the paper's Table 2 micro-parameters
 # ---------------------------------------------------------------------------------
