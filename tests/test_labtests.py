@@ -17,6 +17,7 @@ from grainfrac import materials
 from grainfrac.cli import app
 from grainfrac.errors import ConfigError
 from grainfrac.labtests import lab_test_config, measure, run_labtest
+from grainfrac.labtests.config import LoadingSpec
 from grainfrac.labtests.formulas import (
     brazilian_tensile_strength,
     darcy_permeability,
@@ -116,8 +117,6 @@ def test_default_first_peak_catches_a_small_fall_before_grain_columns_lock_up():
     """A UCS curve whose grain-boundary network fails with a 4 % fall, then intact
     grain columns carry load again (the shape measured at seed 2, softening
     contacts): the default rule reads the strength at the first peak."""
-    from grainfrac.labtests.config import LoadingSpec
-
     rise = np.linspace(0.0, 60.0, 30)
     lock_up = np.linspace(57.5, 249.0, 60)
     load = np.concatenate([rise, [58.0, 57.6, 57.5], lock_up])

@@ -301,7 +301,8 @@ def _calibrate(config: CalibrationConfig, recipe: materials.RockRecipe, bench: L
     start_factors = {name: config.start.get(name, 1.0) for name in FACTORS}
     if "fracture_energy" in unknowns or "fracture_energy" in config.start:
         recipe = _with_start_fracture_energy(recipe, config)
-    tests = tuple(t for t in ("ucs", "bts", "nscb") if t in {TEST_OF[v] for v in pairing.values()})
+    needed = {TEST_OF[target] for target in pairing.values()}
+    tests = tuple(t for t in ("ucs", "bts", "nscb") if t in needed)
     # d log(target) / d log(factor) has a known sign for the default pairs; with it the
     # unknowns move their targets up (a Jacobian close to the identity to start from).
     sign = {name: PAIRING[name][2] if PAIRING[name][0] == target else 1.0
