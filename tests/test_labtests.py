@@ -120,9 +120,22 @@ def test_default_first_peak_catches_a_small_fall_before_grain_columns_lock_up():
     rise = np.linspace(0.0, 60.0, 30)
     lock_up = np.linspace(57.5, 249.0, 60)
     load = np.concatenate([rise, [58.0, 57.6, 57.5], lock_up])
-    index, found = first_peak(load, LoadingSpec().peak_drop_fraction)
+    index, found = first_peak(load, LoadingSpec().resolved("ucs").peak_drop_fraction)
     assert found and load[index] == 60.0
     assert not first_peak(load, 0.05)[1]  # a 5 % rule reads the lock-up instead
+
+
+def test_nscb_peak_is_the_maximum_past_the_crack_first_step_from_the_notch():
+    """An NSCB curve with a 12 % fall as the crack leaves the notch tip, then the
+    ligament carrying more (the shape measured at seed 7, softening contacts):
+    the NSCB default reads the maximum, and the test does not stop at the fall."""
+    spec = LoadingSpec().resolved("nscb")
+    load = np.concatenate([np.linspace(0.0, 0.355, 30), [0.32, 0.31],
+                           np.linspace(0.33, 0.886, 60), [0.4, 0.2, 0.1]])
+    index, found = first_peak(load, spec.peak_drop_fraction)
+    assert found and load[index] == 0.886
+    assert 0.31 > spec.stop_fraction * 0.355
+    assert first_peak(load, LoadingSpec().resolved("ucs").peak_drop_fraction)[0] == 29
 
 
 # ---------------------------------------------------------------------------------
@@ -232,6 +245,7 @@ def test_permeability_scales_with_the_cube_of_the_aperture():
     ({"test": "bts", "specimen": {"shape": "rectangle"}}, "specimen.shape"),
     ({"test": "ucs", "loading": {"platen_speed_mm_per_s": -1}},
      "loading.platen_speed_mm_per_s"),
+    ({"test": "nscb", "loading": {"stop_fraction": 0.6}}, "loading.stop_fraction"),
     ({"test": "permeability", "permeability": {"pressure_in_MPa": 0.0}},
      "permeability.pressure_in_MPa"),
     ({"test": "shear"}, "test"),

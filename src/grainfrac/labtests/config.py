@@ -34,10 +34,17 @@ _SHAPE_OF_TEST = {"ucs": "rectangle", "bts": "disk", "nscb": "semi_disk",
 _DEFAULT_SPECIMEN = {"ucs": RectangleSpec, "bts": DiskSpec, "nscb": SemiDiskSpec,
                      "permeability": RectangleSpec}
 
-# Platen speeds (mm/s) at which halving the speed changes the strength by < 3 %
-# (measured in tests/test_labtests.py). The NSCB beam is compliant and loaded at
-# one point, so it rings at higher speeds.
-DEFAULT_PLATEN_SPEED = {"ucs": 25.0, "bts": 25.0, "nscb": 1.25}
+# Loading defaults per test (see LoadingSpec). Platen speeds (mm/s) are those at
+# which halving the speed changes the strength by < 3 % (measured in
+# tests/test_labtests.py); the NSCB beam is compliant and loaded at one point, so
+# it rings at higher speeds.
+_PLATEN_TEST = {"stop_fraction": 0.7, "peak_drop_fraction": 0.02}
+DEFAULT_LOADING = {
+    "ucs": {"platen_speed_mm_per_s": 25.0, **_PLATEN_TEST},
+    "bts": {"platen_speed_mm_per_s": 25.0, **_PLATEN_TEST},
+    "nscb": {"platen_speed_mm_per_s": 1.25, "stop_fraction": 0.3, "peak_drop_fraction": 0.5},
+    "permeability": {"platen_speed_mm_per_s": 25.0, **_PLATEN_TEST},
+}
 
 LAB_GRAINS = {"min_edge_mm": 2.0, "max_edge_mm": 5.0, "zone_size_mm": 1.25}
 
@@ -57,28 +64,45 @@ class LoadingSpec(StrictModel):
     the first peak (a 2D small-strain assembly can carry load again after it
     has split: that lock-up is recorded but is not strength), or at
     ``max_strain`` (closure over specimen size) with no peak: then the result
-    says ``peak_found = false``.
+    says ``peak_found = false``. Unset fields take the test's default
+    (:data:`DEFAULT_LOADING`).
 
-    A fall of 2 % marks the first peak. In 2D the grains cannot break, so a
-    column of intact grains can carry load again after the grain-boundary
-    network has failed (measured, UCS seed 2 with softening contacts: a 4 %
-    fall at 60 kN, then rising to 249 kN at 3 % strain); the lab's strength
-    is the failure of that network. Curves that fall clearly after their
-    peak read the same at 1 % and 5 %.
+    UCS and BTS: a fall of 2 % marks the first peak. In 2D the grains cannot
+    break, so a column of intact grains can carry load again after the
+    grain-boundary network has failed (measured, UCS seed 2 with softening
+    contacts: a 4 % fall at 60 kN, then rising to 249 kN at 3 % strain); the
+    lab's strength is the failure of that network. Curves that fall clearly
+    after their peak read the same at 1 % and 5 %.
+
+    NSCB: K_IC needs the maximum load (Kuruppu et al. 2014), and a bent beam
+    cannot lock up once the crack has crossed its ligament. The crack's first
+    step from the notch tip can drop the load and the ligament then carries
+    more (measured, softening contacts, seed 7: a 12 % fall at 0.35 kN, then
+    0.89 kN; a 2 % rule read 0.28 instead of 0.71 MPa m^0.5). So the peak is
+    the maximum before the load has halved, and the test runs until it falls
+    below 0.3 x that maximum.
     """
 
     platen_speed_mm_per_s: float | None = Field(
         None, gt=0, le=1000.0,
-        description="speed of each platen [mm/s]; default per test (DEFAULT_PLATEN_SPEED)")
-    stop_fraction: float = Field(0.7, gt=0, lt=1, description="stop below this x peak load")
-    peak_drop_fraction: float = Field(
-        0.02, gt=0, lt=0.5,
-        description="a fall of this fraction below the running maximum marks the first peak")
+        description="speed of each platen [mm/s]; default per test (DEFAULT_LOADING)")
+    stop_fraction: float | None = Field(
+        None, gt=0, lt=1, description="stop below this x peak load; default per test")
+    peak_drop_fraction: float | None = Field(
+        None, gt=0, lt=1,
+        description="a fall of this fraction below the running maximum marks the first peak; "
+                    "default per test")
     post_peak_factor: float = Field(1.5, gt=1, le=10,
                                     description="stop at this x closure at the first peak")
     max_strain: float = Field(0.03, gt=0, le=0.2,
                               description="give up at this closure / specimen size")
     sample_steps: int = Field(200, ge=10, le=100_000, description="steps between samples")
+
+    def resolved(self, test: str) -> LoadingSpec:
+        """This loading with every unset field taken from ``test``'s default."""
+        defaults = DEFAULT_LOADING[test]
+        return self.model_copy(update={k: v for k, v in defaults.items()
+                                       if getattr(self, k) is None})
 
 
 class PermeabilitySpec(StrictModel):
@@ -120,11 +144,25 @@ class LabTestConfig(StrictModel):
                 f"{_SHAPE_OF_TEST[self.test]} (got {self.specimen.shape!r})")
         return self
 
+    @model_validator(mode="after")
+    def _peak_before_stop(self) -> LabTestConfig:
+        loading = self.resolved_loading
+        if loading.stop_fraction >= 1.0 - loading.peak_drop_fraction:
+            raise ValueError(
+                f"loading.stop_fraction: must be < 1 - peak_drop_fraction "
+                f"({1.0 - loading.peak_drop_fraction:g}) so that a peak is found before "
+                f"the test stops (got {loading.stop_fraction:g})")
+        return self
+
+    @property
+    def resolved_loading(self) -> LoadingSpec:
+        """The loading in use: the loading section, unset fields from the test's default."""
+        return self.loading.resolved(self.test)
+
     @property
     def platen_speed_mm_per_s(self) -> float:
         """The platen speed in use: the loading section's, or the test's default."""
-        speed = self.loading.platen_speed_mm_per_s
-        return speed if speed is not None else DEFAULT_PLATEN_SPEED.get(self.test, 25.0)
+        return self.resolved_loading.platen_speed_mm_per_s
 
     @property
     def run_name(self) -> str:

@@ -71,7 +71,7 @@ def reduce_ucs(curve: LoadingCurve, assembly: GrainAssembly, config: LabTestConf
     area = float(hi[0] - lo[0]) * assembly.mesh.thickness
     stress = curve.array("load") / area
     eps_a, eps_l = curve.array("axial_strain"), curve.array("lateral_strain")
-    peak, found = first_peak(stress, config.loading.peak_drop_fraction)
+    peak, found = first_peak(stress, config.resolved_loading.peak_drop_fraction)
     ucs = float(stress[peak])
     window = (TANGENT_WINDOW[0] * ucs, TANGENT_WINDOW[1] * ucs)
     modulus_ps = slope_between(eps_a, stress, *window, upto=peak + 1)
@@ -154,7 +154,7 @@ def reduce_bts(curve: LoadingCurve, assembly: GrainAssembly, config: LabTestConf
     that load is crushing of the fragments, not tensile strength.
     """
     load = curve.array("load")
-    peak, found = first_peak(load, config.loading.peak_drop_fraction)
+    peak, found = first_peak(load, config.resolved_loading.peak_drop_fraction)
     split = np.flatnonzero(curve.array("split") > 0)
     split_found = len(split) > 0
     if split_found and split[0] < peak:
@@ -197,7 +197,7 @@ def reduce_nscb(curve: LoadingCurve, assembly: GrainAssembly, config: LabTestCon
     """Fracture toughness from the peak bending load (paper Eqs. 6-7, Kuruppu et al. 2014)."""
     spec = config.specimen_config().specimen
     load = curve.array("load")
-    peak, found = first_peak(load, config.loading.peak_drop_fraction)
+    peak, found = first_peak(load, config.resolved_loading.peak_drop_fraction)
     radius = spec.diameter_mm * MM / 2
     notch, span = spec.notch_length_mm * MM, spec.support_span_mm * MM
     kic = nscb_fracture_toughness(float(load[peak]), radius, assembly.mesh.thickness, notch, span)

@@ -122,11 +122,11 @@ class PlatenTest:
         return float(sum(p.side * (s - p.position) for p, s in zip(self.loading, start,
                                                                     strict=True)))
 
-    def run(self, spec: LoadingSpec, speed_mm_per_s: float,
-            progress: Callable[[LoadingCurve], None] | None = None,
+    def run(self, spec: LoadingSpec, progress: Callable[[LoadingCurve], None] | None = None,
             ) -> tuple[LoadingCurve, str]:
-        """Load to failure at ``speed_mm_per_s`` per platen; return the curve and why it stopped."""
-        speed = speed_mm_per_s * MM
+        """Load to failure as ``spec`` (resolved: no unset field) says; return the
+        curve and why it stopped."""
+        speed = spec.platen_speed_mm_per_s * MM
         start = [p.position for p in self.loading]
         curve = LoadingCurve(extra={name: [] for name in self.monitors})
         s = self.solver

@@ -55,7 +55,7 @@ def measure(config: LabTestConfig, *, recipe: materials.RockRecipe | None = None
         summary.update(_permeability(config, assembly))
     else:
         test = build_test(config, assembly)
-        curve, reason = test.run(config.loading, config.platen_speed_mm_per_s, progress)
+        curve, reason = test.run(config.resolved_loading, progress)
         summary.update(REDUCERS[config.test](curve, assembly, config))
         s = test.solver
         mode = np.asarray(s.cracks.mode, dtype=np.int64)
@@ -105,6 +105,7 @@ def run_labtest(config: LabTestConfig, out: str | Path, *,
     resolved = config.model_dump(mode="json", exclude_none=True)
     resolved["rock"] = recipe.model_dump(mode="json")
     resolved["specimen"] = config.specimen_config().specimen.model_dump(mode="json")
+    resolved["loading"] = config.resolved_loading.model_dump(mode="json")
     write_toml(out / "config.toml", resolved)
     result = measure(config, recipe=recipe, progress=progress)
     summary, assembly, curve = result["summary"], result["assembly"], result["curve"]
