@@ -13,7 +13,7 @@ import pytest
 
 from grainfrac import calibration, materials
 from grainfrac.calibration import CalibrationConfig, LabBench, calibrate, scaled_recipe
-from grainfrac.errors import ConfigError
+from grainfrac.errors import ConfigError, GrainfracError
 from grainfrac.io.config import validate
 
 BASE = materials.load_recipe("strathbogie-granite")
@@ -180,3 +180,46 @@ def test_bad_targets_file_names_the_field(data, field):
     with pytest.raises(ConfigError) as info:
         validate(CalibrationConfig, data)
     assert field in str(info.value)
+
+
+def test_an_interrupted_calibration_resumes_from_its_history(monkeypatch, tmp_path):
+    """Killed after three evaluations (history.csv written after each), then resumed:
+    the three are read back, not run again, and the result is the uninterrupted one."""
+    calls = []
+
+    def counting_bench(self, recipe, tests):
+        calls.append(tests)
+        return _power_law_bench(self, recipe, tests)
+
+    monkeypatch.setattr(LabBench, "measure", counting_bench)
+    config = validate(CalibrationConfig, {"seeds": [0], "tolerance": 0.01})
+    whole = calibrate(config, BASE)
+    n_whole = len(calls)
+
+    def killed_at_three(rows):
+        calibration.write_history(rows, tmp_path)
+        if len(rows) == 3:
+            raise KeyboardInterrupt
+
+    calibration.write_config(config, tmp_path)
+    with pytest.raises(KeyboardInterrupt):
+        calibrate(config, BASE, on_evaluation=killed_at_three)
+    calls.clear()
+    replay = calibration.resume_history(config, tmp_path)
+    assert [row["evaluation"] for row in replay] == [1.0, 2.0, 3.0]
+    resumed = calibrate(config, BASE, replay=replay)
+    assert len(calls) == n_whole - 3
+    assert resumed["factors"] == whole["factors"]
+    assert [r["max_error"] for r in resumed["history"]] == [
+        r["max_error"] for r in whole["history"]]
+
+
+def test_resume_refuses_a_directory_of_another_calibration(tmp_path):
+    config = validate(CalibrationConfig, {"seeds": [0]})
+    with pytest.raises(GrainfracError, match="holds no calibration"):
+        calibration.resume_history(config, tmp_path)
+    calibration.write_config(config, tmp_path)
+    calibration.write_history([], tmp_path)
+    other = validate(CalibrationConfig, {"seeds": [0, 1]})
+    with pytest.raises(GrainfracError, match="differs in seeds"):
+        calibration.resume_history(other, tmp_path)

@@ -106,6 +106,8 @@ TEST_OF = {"ucs_MPa": "ucs", "youngs_modulus_GPa": "ucs", "poisson_ratio": "ucs"
            "bts_MPa": "bts", "kic_MPa_sqrt_m": "nscb"}
 REPORTED = ("ucs_MPa", "bts_MPa", "kic_MPa_sqrt_m", "youngs_modulus_GPa", "poisson_ratio",
             "permeability_m2")
+MEASURED = ("ucs_MPa", "bts_MPa", "kic_MPa_sqrt_m", "youngs_modulus_GPa", "poisson_ratio")
+HISTORY_COLUMNS = ("evaluation", *FACTORS, *MEASURED, "max_error", "wall_time_s")
 LABELS = {"ucs_MPa": "UCS (MPa)", "bts_MPa": "BTS (MPa)", "kic_MPa_sqrt_m": "K_IC (MPa m^0.5)",
           "youngs_modulus_GPa": "E (GPa)", "poisson_ratio": "nu",
           "permeability_m2": "permeability (m2)"}
@@ -277,20 +279,38 @@ class LabBench:
 
 
 def calibrate(config: CalibrationConfig, recipe: materials.RockRecipe, *,
-              log: Callable[[str], None] | None = None) -> dict[str, Any]:
+              log: Callable[[str], None] | None = None,
+              on_evaluation: Callable[[list[dict[str, Any]]], None] | None = None,
+              replay: list[dict[str, Any]] | None = None) -> dict[str, Any]:
     """Find the factors and a0 that reproduce the targets; return the result record.
 
     The record holds ``recipe`` (calibrated), ``factors``, ``initial_aperture_m``,
     ``history`` (one row per evaluation), ``achieved`` (means of the final
     recipe, with K_IC and permeability), ``per_seed`` and ``converged``.
+
+    ``on_evaluation(history)`` is called after every evaluation (a checkpoint).
+    ``replay`` is the history of an interrupted calibration of the same config:
+    an evaluation at factors found there takes its means instead of running the
+    lab tests. The lab tests are deterministic, so the root finder retraces the
+    interrupted run and goes on from where it stopped.
     """
     say = log or (lambda _msg: None)
     with LabBench(config.seeds, config.grains, config.workers) as bench:
-        return _calibrate(config, recipe, bench, say)
+        return _calibrate(config, recipe, bench, say, on_evaluation, replay or [])
+
+
+def _replayed(rows: list[dict[str, Any]], factors: dict[str, float]) -> dict[str, Any] | None:
+    """The row of ``rows`` evaluated at ``factors`` (to rounding), if any."""
+    for row in rows:
+        if all(math.isclose(row[k], factors[k], rel_tol=1e-9) for k in FACTORS):
+            return row
+    return None
 
 
 def _calibrate(config: CalibrationConfig, recipe: materials.RockRecipe, bench: LabBench,
-               say: Callable[[str], None]) -> dict[str, Any]:
+               say: Callable[[str], None],
+               on_evaluation: Callable[[list[dict[str, Any]]], None] | None,
+               replay: list[dict[str, Any]]) -> dict[str, Any]:
     from scipy.optimize import root
 
     targets = config.targets.model_dump()
@@ -322,16 +342,23 @@ def _calibrate(config: CalibrationConfig, recipe: materials.RockRecipe, bench: L
             raise _Stop
         factors = factors_of(x)
         start = time.perf_counter()
-        means, _ = bench.measure(scaled_recipe(recipe, factors), tests)
+        earlier = _replayed(replay, factors)
+        if earlier is not None:
+            means = {k: earlier[k] for k in MEASURED if earlier.get(k) is not None}
+        else:
+            means, _ = bench.measure(scaled_recipe(recipe, factors), tests)
         r = np.array([math.log(means[pairing[n]] / targets[pairing[n]]) for n in unknowns])
         if not np.all(np.isfinite(r)):
             raise GrainfracError(f"calibration: a lab test gave no value at factors {factors}")
         history.append({"evaluation": len(history) + 1, **factors, **means,
                         "max_error": float(np.max(np.abs(np.expm1(r)))),
-                        "wall_time_s": time.perf_counter() - start})
-        say(f"evaluation {len(history)}: " + ", ".join(
-            f"{pairing[n]} {means[pairing[n]]:.4g} ({math.expm1(ri):+.1%})"
-            for n, ri in zip(unknowns, r, strict=True)))
+                        "wall_time_s": (time.perf_counter() - start if earlier is None
+                                        else earlier["wall_time_s"])})
+        say(f"evaluation {len(history)}{' (from the history)' if earlier else ''}: "
+            + ", ".join(f"{pairing[n]} {means[pairing[n]]:.4g} ({math.expm1(ri):+.1%})"
+                        for n, ri in zip(unknowns, r, strict=True)))
+        if on_evaluation is not None:
+            on_evaluation(history)
         if history[-1]["max_error"] <= config.tolerance:
             raise _Stop
         seen[key] = r
@@ -443,12 +470,8 @@ def write_calibration(result: dict[str, Any], config: CalibrationConfig, out: st
                else f"{r['seed_min']:.4g} - {r['seed_max']:.4g}")
         lines.append(f"| {r['quantity']} | {r['laboratory']:.4g} | {sim} | {err} | {rng} |")
     table_md = write_text(out / "table.md", "\n".join(lines) + "\n")
-    history_cols = ["evaluation", *FACTORS, "ucs_MPa", "bts_MPa", "kic_MPa_sqrt_m",
-                    "youngs_modulus_GPa", "poisson_ratio", "max_error", "wall_time_s"]
-    history = write_csv(out / "history.csv",
-                        [{k: row.get(k) for k in history_cols} for row in result["history"]],
-                        history_cols)
-    write_toml(out / "config.toml", config.model_dump(mode="json", exclude_none=True))
+    history = write_history(result["history"], out)
+    write_config(config, out)
     summary = {
         "name": recipe.name,
         "converged": result["converged"],
@@ -466,3 +489,44 @@ def write_calibration(result: dict[str, Any], config: CalibrationConfig, out: st
     write_json(out / "summary.json", summary)
     return {"recipe": recipe_path, "table_csv": table_csv, "table_md": table_md,
             "history": history}
+
+
+def write_history(history: list[dict[str, Any]], out: str | Path) -> Path:
+    """Write ``out/history.csv`` (one row per evaluation), atomically."""
+    return write_csv(Path(out) / "history.csv",
+                     [{k: row.get(k) for k in HISTORY_COLUMNS} for row in history],
+                     list(HISTORY_COLUMNS))
+
+
+def read_history(path: str | Path) -> list[dict[str, Any]]:
+    """Rows of a ``history.csv`` written by :func:`write_history` (numbers as floats)."""
+    import csv
+
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    if rows and set(HISTORY_COLUMNS) - set(rows[0]):
+        raise GrainfracError(f"{path}: not a calibration history (columns "
+                             f"{sorted(set(HISTORY_COLUMNS) - set(rows[0]))} missing)")
+    return [{k: (float(v) if v not in ("", None) else None) for k, v in row.items()}
+            for row in rows]
+
+
+def write_config(config: CalibrationConfig, out: str | Path) -> Path:
+    """Write the resolved calibration config to ``out/config.toml`` (resume checks it)."""
+    return write_toml(Path(out) / "config.toml", config.model_dump(mode="json", exclude_none=True))
+
+
+def resume_history(config: CalibrationConfig, out: str | Path) -> list[dict[str, Any]]:
+    """The history of the interrupted calibration in ``out``, checked to be of ``config``."""
+    out = Path(out)
+    history, written = out / "history.csv", out / "config.toml"
+    if not history.exists() or not written.exists():
+        raise GrainfracError(f"--resume: {out} holds no calibration to continue "
+                             f"(history.csv and config.toml are needed)")
+    before = read_toml(written)
+    now = config.model_dump(mode="json", exclude_none=True)
+    changed = sorted(k for k in before.keys() | now.keys() if before.get(k) != now.get(k))
+    if changed:
+        raise GrainfracError(f"--resume: {out} was calibrated with a different targets file "
+                             f"(differs in {', '.join(changed)}); use another --out")
+    return read_history(history)

@@ -283,19 +283,39 @@ def _run_labtest_with_progress(cfg, recipe, out: Path) -> dict:
 def calibrate(
     targets: Annotated[Path, typer.Argument(help="TARGETS.toml: start rock, lab targets, seeds.")],
     out: Annotated[Path, typer.Option("--out", help="Output directory.")] = Path("calibration"),
+    resume: Annotated[bool, typer.Option(
+        "--resume", help="Continue the interrupted calibration in --out from its history.csv.",
+    )] = False,
 ) -> None:
-    """Fit micro-parameters to lab targets with the virtual UCS/BTS/NSCB/permeability tests."""
+    """Fit micro-parameters to lab targets with the virtual UCS/BTS/NSCB/permeability tests.
+
+    Every evaluation is appended to OUT/history.csv as it finishes; an
+    interrupted calibration continues with --resume (the evaluations done are
+    read back, not run again)."""
     from grainfrac import calibration
 
     start = time.perf_counter()
+    saved: list[int] = []
+
+    def checkpoint(rows: list[dict]) -> None:
+        calibration.write_history(rows, out)
+        saved.append(len(rows))
+
     try:
         config, recipe = calibration.load_calibration_config(targets)
+        replay = calibration.resume_history(config, out) if resume else []
+        calibration.write_config(config, out)
         with console.status("calibrating...") as status:
             result = calibration.calibrate(
-                config, recipe, log=lambda msg: (console.print(msg), status.update(msg)))
+                config, recipe, log=lambda msg: (console.print(msg), status.update(msg)),
+                on_evaluation=checkpoint, replay=replay)
         paths = calibration.write_calibration(result, config, out, time.perf_counter() - start)
-    except GrainfracError as exc:
-        _fail(exc)
+    except (GrainfracError, KeyboardInterrupt) as exc:
+        if saved:
+            err_console.print(f"stopped after evaluation {saved[-1]}; the evaluations are in "
+                              f"{out / 'history.csv'}. Continue with: grainfrac calibrate "
+                              f"{targets} --out {out} --resume", highlight=False, soft_wrap=True)
+        _fail(exc if isinstance(exc, GrainfracError) else GrainfracError("interrupted"))
     table = Table(title=f"{config.name}: laboratory vs simulated (mean of seeds {config.seeds})")
     for col in ("quantity", "laboratory", "simulated", "error %", "realisations"):
         table.add_column(col, justify="right" if col != "quantity" else "left")
