@@ -67,6 +67,7 @@ from __future__ import annotations
 
 import math
 import os
+import signal
 import time
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
@@ -236,6 +237,13 @@ def _lab_value(job: tuple[str, int, materials.RockRecipe, GrainSpec]) -> dict[st
     return measure(config, recipe=recipe)["summary"]
 
 
+def _ignore_interrupt() -> None:
+    # Ctrl-C reaches the whole process group: the parent stops the calibration
+    # (and keeps its history); workers finish their test instead of each
+    # printing a traceback.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 class LabBench:
     """Runs lab tests over the realisations, in parallel processes; means per quantity.
 
@@ -266,7 +274,8 @@ class LabBench:
         jobs = [(t, s, recipe, self.grains) for t in tests for s in self.seeds]
         if self.workers > 1 and len(jobs) > 1:
             if self._pool is None:
-                self._pool = ProcessPoolExecutor(max_workers=self.workers)
+                self._pool = ProcessPoolExecutor(max_workers=self.workers,
+                                                 initializer=_ignore_interrupt)
             runs = list(self._pool.map(_lab_value, jobs))
         else:
             runs = [_lab_value(j) for j in jobs]
