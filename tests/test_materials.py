@@ -10,6 +10,7 @@ import pytest
 import tomli_w
 from scipy import stats
 
+from grainfrac.assembly import SpecimenConfig, build_assembly
 from grainfrac.errors import ConfigError
 from grainfrac.io.config import validate
 from grainfrac.materials import (
@@ -28,6 +29,7 @@ from grainfrac.materials import (
     pair_index,
     preset_names,
     select_fissures,
+    weibull_draw,
     weibull_multipliers,
 )
 from grainfrac.units import DEG, GPA, GPA_PER_M, MPA
@@ -183,6 +185,35 @@ def test_weibull_deterministic():
     a = weibull_multipliers(np.random.default_rng(5), 10, spec)
     b = weibull_multipliers(np.random.default_rng(5), 10, spec)
     np.testing.assert_array_equal(a, b)
+
+
+def test_bounded_draws_stay_below_their_bound_and_valid_draws_are_unchanged():
+    """A wide spread (shape 1.5) would give mica (nu 0.29) grains nu > 0.5: those are
+    drawn again. Draws already valid are the plain product, so Table 2 is untouched."""
+    wide = WeibullSpec(shape=1.5)
+    base = np.full(10_000, 0.29)
+    plain = base * weibull_multipliers(np.random.default_rng(3), len(base), wide)
+    bounded = weibull_draw(base, np.random.default_rng(3), wide, upper=0.5)
+    print(f"\nplain draws >= 0.5: {np.count_nonzero(plain >= 0.5)}; "
+          f"bounded max {bounded.max():.4f}")
+    assert np.count_nonzero(plain >= 0.5) > 100
+    assert bounded.max() < 0.5
+    valid = plain < 0.5
+    np.testing.assert_array_equal(bounded[valid], plain[valid])
+    with pytest.raises(ConfigError, match="weibull.shape"):
+        weibull_draw(np.array([5.0]), np.random.default_rng(0), WeibullSpec(), upper=0.5)
+
+
+def test_a_wide_weibull_spread_still_builds_valid_grains_and_contacts(granite):
+    data = granite.model_dump(mode="json")
+    data["weibull"]["shape"] = 2.0
+    wide = RockRecipe.model_validate(data)
+    for seed in range(3):
+        a = build_assembly(SpecimenConfig(seed=seed, specimen={"shape": "disk"},
+                                          grains={"min_edge_mm": 2.0, "max_edge_mm": 5.0,
+                                                  "zone_size_mm": 1.25}), wide)
+        assert a.grain_poisson_ratio.max() < 0.5
+        assert a.interface_friction_angle.max() < 0.5 * math.pi
 
 
 # ----------------------------------------------------------------- mineral assignment

@@ -218,8 +218,8 @@ def build_assembly(config: SpecimenConfig, recipe: materials.RockRecipe) -> Grai
     mineral = materials.assign_minerals(grains.grain_areas(), mtab.volume_fraction,
                                         rngs["minerals"])
     g_draw = {
-        name: getattr(mtab, name)[mineral]
-        * materials.weibull_multipliers(rngs["grain_weibull"], len(mineral), recipe.weibull)
+        name: materials.weibull_draw(getattr(mtab, name)[mineral], rngs["grain_weibull"],
+                                     recipe.weibull, materials.WEIBULL_UPPER_BOUNDS.get(name))
         for name in materials.WEIBULL_GRAIN_PROPERTIES
     }
     pair = materials.pair_index(
@@ -227,8 +227,8 @@ def build_assembly(config: SpecimenConfig, recipe: materials.RockRecipe) -> Grai
         mtab.n_minerals,
     )
     c_draw = {
-        name: getattr(ctab, name)[pair]
-        * materials.weibull_multipliers(rngs["contact_weibull"], len(pair), recipe.weibull)
+        name: materials.weibull_draw(getattr(ctab, name)[pair], rngs["contact_weibull"],
+                                     recipe.weibull, materials.WEIBULL_UPPER_BOUNDS.get(name))
         for name in materials.WEIBULL_CONTACT_PROPERTIES
     }
 

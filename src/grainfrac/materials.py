@@ -77,6 +77,7 @@ __all__ = [
     "pair_index",
     "preset_names",
     "select_fissures",
+    "weibull_draw",
     "weibull_multipliers",
 ]
 
@@ -99,6 +100,12 @@ WEIBULL_CONTACT_PROPERTIES: tuple[str, ...] = (
 
 The friction multiplier applies to the friction *angle* (not to its tangent).
 """
+
+WEIBULL_UPPER_BOUNDS: dict[str, float] = {"poisson_ratio": 0.5,
+                                          "friction_angle_rad": 0.5 * math.pi}
+"""Bounds a drawn property must stay below: the Weibull is truncated there
+(:func:`weibull_draw`). A wide spread (shape 2) draws mica grains with
+nu > 0.5, whose elements blow up, and friction angles past 90 deg."""
 
 
 # --------------------------------------------------------------------------- schemas
@@ -570,6 +577,33 @@ def pair_index(mineral_a: np.ndarray, mineral_b: np.ndarray, n_minerals: int) ->
 
 
 # --------------------------------------------------------------------------- random draws
+
+
+def weibull_draw(base: np.ndarray, rng: np.random.Generator, spec: WeibullSpec,
+                 upper: float | None = None) -> np.ndarray:
+    """``base`` times :func:`weibull_multipliers`, kept below ``upper``.
+
+    Entries at or above ``upper`` are drawn again (from the same stream, after
+    the first draw) until they fall below it: the Weibull truncated at the
+    bound. Draws that are valid at once are exactly those of the plain product,
+    so a truncation that never acts changes nothing.
+
+    Raises
+    ------
+    ConfigError
+        When 1000 redraws do not fall below ``upper`` (``base`` far past it).
+    """
+    base = np.asarray(base, dtype=np.float64)
+    x = base * weibull_multipliers(rng, len(base), spec)
+    if upper is None:
+        return x
+    for _ in range(1000):
+        bad = np.flatnonzero(x >= upper)
+        if len(bad) == 0:
+            return x
+        x[bad] = base[bad] * weibull_multipliers(rng, len(bad), spec)
+    raise ConfigError("weibull.shape", f"{spec.shape:g} spreads a value of {base.max():g} "
+                      f"past its bound {upper:g} in 1000 draws; use a larger shape")
 
 
 def weibull_multipliers(
