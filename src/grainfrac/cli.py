@@ -202,6 +202,7 @@ def _print_run_summary(results: dict[str, dict]) -> None:
     rows = [
         ("breakdown pressure (MPa)", "breakdown_pressure_MPa", ".2f"),
         ("peak expansive pressure (MPa)", "peak_expansive_pressure_MPa", ".1f"),
+        ("SCDA stopped by", "scda_stop_reason", "s"),
         ("radial fractures", "n_radial_fractures", "d"),
         ("fracture extent (mm)", "fracture_extent_mm", ".1f"),
         ("cracks (tensile / shear)", None, None),

@@ -76,6 +76,7 @@ class RunState:
     snapshots: list[tuple[float, str, str]] = field(default_factory=list)
     next_snapshot_time: float = 0.0
     peak_expansive_pressure: float = 0.0
+    scda_stop_reason: str | None = None
     injection_start_time: float | None = None
     stage_times: dict[str, list[float]] = field(default_factory=dict)
     in_situ_unbalanced_force_ratio: float | None = None
@@ -257,9 +258,14 @@ class Run:
         st.peak_expansive_pressure = max(st.peak_expansive_pressure, p)
         elapsed = self.solver.time - st.stage_start_time
         limit = stage.max_duration_ms * 1e-3
-        done = (p >= stage.peak_pressure_MPa * 1e6
-                or stage.velocity(elapsed) < stage.min_velocity_fraction * stage.velocity(0.0)
-                or elapsed >= limit)
+        if p >= stage.peak_pressure_MPa * 1e6:
+            st.scda_stop_reason = "peak pressure"
+        elif stage.velocity(elapsed) < stage.min_velocity_fraction * stage.velocity(0.0):
+            st.scda_stop_reason = "expansion decayed"
+        elif elapsed >= limit:
+            # Neither of the paper's ends: the result depends on the time limit.
+            st.scda_stop_reason = "time limit"
+        done = st.scda_stop_reason is not None
         self._record(stage, min(1.0, max(p / (stage.peak_pressure_MPa * 1e6), elapsed / limit)))
         self._maybe_snapshot()
         if done:
@@ -434,6 +440,7 @@ def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
         "breakdown_drop_1ms_fraction": None,
         "peak_well_pressure_MPa": None,
         "peak_expansive_pressure_MPa": None,
+        "scda_stop_reason": None,
         "injected_volume_ml": None,
     }
     if run.coupled is not None:
@@ -444,6 +451,7 @@ def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
         out["injected_volume_ml"] = run.coupled.state.injected * 1e6
     if "scda" in run.scenario.stage_kinds:
         out["peak_expansive_pressure_MPa"] = run.state.peak_expansive_pressure / 1e6
+        out["scda_stop_reason"] = run.state.scda_stop_reason
     out.update(fracture_summary(
         xy[:, 0], xy[:, 1], mode, energy, center=outline.borehole_center,
         well_radius=outline.borehole_radius,
