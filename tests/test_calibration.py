@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 from grainfrac import calibration, materials
@@ -159,14 +160,21 @@ def test_write_calibration_writes_recipe_table_history(monkeypatch, tmp_path):
     assert recipe.hydraulic.initial_aperture_m == pytest.approx(result["initial_aperture_m"])
     table = paths["table_md"].read_text()
     assert "UCS (MPa)" in table and "K_IC" in table and "realisations (min-max)" in table
+    assert "mean 95 % CI" in table
 
 
 def test_seed_spread_shows_realisations_a_mean_hides():
     runs = [{"test": "bts", "bts_MPa": v} for v in (1.2, 15.7, 2.5)] + [
         {"test": "ucs", "ucs_MPa": 120.0, "poisson_ratio": None}]
     spread = calibration.seed_spread(runs)
-    assert spread["bts_MPa"] == {"min": 1.2, "max": 15.7}
-    assert spread["ucs_MPa"] == {"min": 120.0, "max": 120.0}
+    bts = spread["bts_MPa"]
+    assert (bts["min"], bts["max"]) == (1.2, 15.7)
+    # Student-t 95 % interval of the mean: 6.47 +- 4.303 x 8.11 / sqrt(3)
+    half = 4.302653 * float(np.std([1.2, 15.7, 2.5], ddof=1)) / math.sqrt(3)
+    assert bts["ci_low"] == pytest.approx(6.4666667 - half, rel=1e-5)
+    assert bts["ci_high"] == pytest.approx(6.4666667 + half, rel=1e-5)
+    ucs = spread["ucs_MPa"]
+    assert (ucs["min"], ucs["max"]) == (120.0, 120.0) and math.isnan(ucs["ci_low"])
     assert "poisson_ratio" not in spread and "kic_MPa_sqrt_m" not in spread
 
 

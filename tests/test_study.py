@@ -12,9 +12,9 @@ import pytest
 from scipy import stats as sps
 from typer.testing import CliRunner
 
+from grainfrac.analysis import stats
 from grainfrac.cli import app
 from grainfrac.errors import ConfigError
-from grainfrac.studies import stats
 from grainfrac.studies.claims import Claim, evaluate
 from grainfrac.studies.paper import (
     LAB_SCENARIO,

@@ -318,15 +318,10 @@ def calibrate(
                               f"{targets} --out {out} --resume", highlight=False, soft_wrap=True)
         _fail(exc if isinstance(exc, GrainfracError) else GrainfracError("interrupted"))
     table = Table(title=f"{config.name}: laboratory vs simulated (mean of seeds {config.seeds})")
-    for col in ("quantity", "laboratory", "simulated", "error %", "realisations"):
+    for col in calibration.TABLE_HEADINGS:
         table.add_column(col, justify="right" if col != "quantity" else "left")
-    for key, label in calibration.LABELS.items():
-        achieved = result["achieved"].get(key)
-        target = result["targets"][key]
-        spread = result["spread"].get(key)
-        table.add_row(label, f"{target:.4g}", _fmt(achieved, ".4g"),
-                      _fmt(None if achieved is None else 100 * (achieved / target - 1), "+.2f"),
-                      "-" if spread is None else f"{spread['min']:.4g} - {spread['max']:.4g}")
+    for row in calibration.table_rows(result):
+        table.add_row(*calibration.table_cells(row))
     console.print(table)
     console.print(f"{'converged' if result['converged'] else 'NOT converged'} after "
                   f"{len(result['history'])} evaluations in {time.perf_counter() - start:.0f} s; "

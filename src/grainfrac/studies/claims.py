@@ -41,7 +41,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
-from grainfrac.studies import stats
+from grainfrac.analysis import stats
 from grainfrac.studies.sweep import SweepResult
 
 Verdicts = Literal["holds", "does not hold", "inconclusive", "undetermined"]

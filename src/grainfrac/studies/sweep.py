@@ -68,11 +68,11 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, Field, field_validator, model_validator
 
+from grainfrac.analysis import stats
 from grainfrac.errors import ConfigError, GrainfracError
 from grainfrac.io.config import StrictModel, read_toml, validate
 from grainfrac.io.files import write_csv, write_json
 from grainfrac.scenario import ScdaStage, Scenario, resolved_dict
-from grainfrac.studies import stats
 
 # summary.json keys of DESIGN.md section 6 (and the driver's extras), in table order.
 SCALAR_QUANTITIES = (
