@@ -65,6 +65,7 @@ the paper did (its K_IC verified, not calibrated, the model).
 
 from __future__ import annotations
 
+import csv
 import math
 import os
 import signal
@@ -534,8 +535,6 @@ def write_history(history: list[dict[str, Any]], out: str | Path) -> Path:
 
 def read_history(path: str | Path) -> list[dict[str, Any]]:
     """Rows of a ``history.csv`` written by :func:`write_history` (numbers as floats)."""
-    import csv
-
     with open(path, newline="") as f:
         rows = list(csv.DictReader(f))
     if rows and set(HISTORY_COLUMNS) - set(rows[0]):
