@@ -8,6 +8,7 @@ response is a known, coupled power law, so convergence is checked exactly.
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -231,3 +232,10 @@ def test_resume_refuses_a_directory_of_another_calibration(tmp_path):
     other = validate(CalibrationConfig, {"seeds": [0, 1]})
     with pytest.raises(GrainfracError, match="differs in seeds"):
         calibration.resume_history(other, tmp_path)
+
+
+@pytest.mark.parametrize("path", sorted(
+    (Path(__file__).parents[1] / "examples" / "calibration").glob("*.toml")), ids=lambda p: p.name)
+def test_example_targets_files_are_valid(path):
+    config, recipe = calibration.load_calibration_config(path)
+    assert config.pairing() and recipe.contacts
