@@ -1,6 +1,6 @@
 """How high can K_IC / BTS go in the 2D model? (issue 6, calibration)
 
-    python benchmarks/kic_bts_ratio.py            # seeds 0-5, about 6 min on 2 cores
+    python benchmarks/kic_bts_ratio.py            # seeds 0-5, about 5 min on 2 cores
     python benchmarks/kic_bts_ratio.py --seeds 3  # seeds 0-2
 
 The laboratory's K_IC / BTS is 1.35 / 6.38 = 0.21 m^0.5 (paper Table 3). With
