@@ -239,3 +239,40 @@ def test_resume_refuses_a_directory_of_another_calibration(tmp_path):
 def test_example_targets_files_are_valid(path):
     config, recipe = calibration.load_calibration_config(path)
     assert config.pairing() and recipe.contacts
+
+
+def test_held_out_seeds_measure_the_calibrated_recipe_on_new_realisations(monkeypatch, tmp_path):
+    """A calibration fits the mean of its own realisations; the held-out seeds say whether
+    that mean carries over (here the bench's held-out realisations are 20 % stronger)."""
+    measured_seeds = []
+
+    def bench(self, recipe, tests, seeds=None):
+        seeds = self.seeds if seeds is None else seeds
+        measured_seeds.append(tuple(seeds))
+        means, runs = _power_law_bench(self, recipe, tests)
+        if seeds == [7, 8]:
+            means = {k: v * (1.2 if k == "ucs_MPa" else 1.0) for k, v in means.items()}
+        return means, [{"test": "ucs", **means}]
+
+    monkeypatch.setattr(LabBench, "measure", bench)
+    config = validate(CalibrationConfig, {"seeds": [0], "validation_seeds": [7, 8],
+                                          "tolerance": 0.01, "name": "held"})
+    result = calibrate(config, BASE)
+    assert measured_seeds[-1] == (7, 8) and (7, 8) not in measured_seeds[:-1]
+    assert abs(result["errors"]["ucs_MPa"]) < 0.01
+    assert result["held_out"]["errors"]["ucs_MPa"] == pytest.approx(
+        1.2 * (1 + result["errors"]["ucs_MPa"]) - 1)
+    paths = calibration.write_calibration(result, config, tmp_path, 1.0)
+    table = paths["table_md"].read_text()
+    assert "held-out error %" in table and "+20." in table
+    assert "held-out seeds [7, 8]: UCS +20." in paths["recipe"].read_text()
+    assert materials.load_recipe(paths["recipe"]).name == "held"
+
+
+def test_held_out_seeds_must_differ_from_the_calibration_seeds():
+    with pytest.raises(ConfigError) as info:
+        validate(CalibrationConfig, {"seeds": [0, 1], "validation_seeds": [1, 2]})
+    assert "validation_seeds" in str(info.value) and "[1]" in str(info.value)
+    with pytest.raises(ConfigError) as info:
+        validate(CalibrationConfig, {"seeds": [0, 0]})
+    assert "seeds" in str(info.value)

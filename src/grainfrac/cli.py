@@ -318,7 +318,7 @@ def calibrate(
                               f"{targets} --out {out} --resume", highlight=False, soft_wrap=True)
         _fail(exc if isinstance(exc, GrainfracError) else GrainfracError("interrupted"))
     table = Table(title=f"{config.name}: laboratory vs simulated (mean of seeds {config.seeds})")
-    for col in calibration.TABLE_HEADINGS:
+    for col in calibration.table_headings(result):
         table.add_column(col, justify="right" if col != "quantity" else "left")
     for row in calibration.table_rows(result):
         table.add_row(*calibration.table_cells(row))
