@@ -276,3 +276,21 @@ def test_held_out_seeds_must_differ_from_the_calibration_seeds():
     with pytest.raises(ConfigError) as info:
         validate(CalibrationConfig, {"seeds": [0, 0]})
     assert "seeds" in str(info.value)
+
+
+def test_a_test_without_peak_is_left_out_of_the_means(monkeypatch):
+    """A UCS specimen whose split columns carry on has no strength, E or nu to give."""
+    def lab_value(job):
+        test, seed, _, _ = job
+        if seed == 21:  # measured: Table 2, seed 21
+            return {"test": test, "seed": seed, "ucs_MPa": 442.0, "poisson_ratio": 0.928,
+                    "peak_found": False}
+        return {"test": test, "seed": seed, "ucs_MPa": 100.0 + seed, "poisson_ratio": 0.24,
+                "peak_found": True}
+
+    monkeypatch.setattr(calibration, "_lab_value", lab_value)
+    with LabBench([0, 2, 21], calibration.GrainSpec(), workers=1) as bench:
+        means, runs = bench.measure(BASE, ("ucs",))
+    assert means["ucs_MPa"] == pytest.approx(101.0) and means["poisson_ratio"] == 0.24
+    assert calibration.no_peak_runs(runs) == ["ucs seed 21"]
+    assert calibration.seed_spread(runs)["ucs_MPa"]["max"] == 102.0

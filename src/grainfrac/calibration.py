@@ -313,7 +313,7 @@ class LabBench:
             runs = [_lab_value(j) for j in jobs]
         means = {}
         for key in REPORTED:
-            values = [r[key] for r in runs if key in r and r[key] is not None]
+            values = measured_values(runs, key)
             if values:
                 means[key] = float(np.mean(values))
         return means, runs
@@ -442,6 +442,20 @@ def _calibrate(config: CalibrationConfig, recipe: materials.RockRecipe, bench: L
     }
 
 
+def measured_values(runs: list[dict[str, Any]], key: str) -> list[float]:
+    """``key`` of the runs that measured it; a platen test that found no peak
+    before its strain limit (a 2D specimen whose split columns carry on, e.g.
+    Table 2 UCS seed 21: no 2 % fall up to 3 % strain, 442 MPa, and the split
+    columns' lateral strain making nu 0.93) measured no strength, E or nu."""
+    return [r[key] for r in runs
+            if r.get(key) is not None and r.get("peak_found", True)]
+
+
+def no_peak_runs(runs: list[dict[str, Any]]) -> list[str]:
+    """``"test seed N"`` of each platen test that found no peak (left out of the means)."""
+    return [f"{r['test']} seed {r['seed']}" for r in runs if r.get("peak_found") is False]
+
+
 def _errors(achieved: dict[str, float], targets: dict[str, float]) -> dict[str, float]:
     return {k: achieved[k] / targets[k] - 1.0 for k in REPORTED if k in achieved}
 
@@ -458,7 +472,7 @@ def seed_spread(runs: list[dict[str, Any]]) -> dict[str, dict[str, float]]:
     """
     out = {}
     for key in REPORTED:
-        values = [r[key] for r in runs if r.get(key) is not None]
+        values = measured_values(runs, key)
         if values:
             mean = stats.summarise(values)
             out[key] = {"min": float(min(values)), "max": float(max(values)),
@@ -574,6 +588,10 @@ def write_calibration(result: dict[str, Any], config: CalibrationConfig, out: st
     headings = table_headings(result)
     lines = ["| " + " | ".join(headings) + " |", "|---" * len(headings) + "|"]
     lines += ["| " + " | ".join(table_cells(r)) + " |" for r in rows]
+    left_out = no_peak_runs(result["per_seed"])
+    if left_out:
+        lines += ["", "Left out of the means (no peak before the strain limit): "
+                  + ", ".join(left_out) + "."]
     table_md = write_text(out / "table.md", "\n".join(lines) + "\n")
     history = write_history(result["history"], out)
     write_config(config, out)
@@ -592,6 +610,7 @@ def write_calibration(result: dict[str, Any], config: CalibrationConfig, out: st
         "held_out": result.get("held_out"),
         "wall_time_s": wall_time_s,
         "per_seed": result["per_seed"],
+        "no_peak": no_peak_runs(result["per_seed"]),
     }
     write_json(out / "summary.json", summary)
     return {"recipe": recipe_path, "table_csv": table_csv, "table_md": table_md,

@@ -255,6 +255,12 @@ def labtest(
             value = summary[key]
             table.add_row(key, f"{value:.4g}" if isinstance(value, float) else str(value))
     console.print(table)
+    if summary.get("peak_found") is False:
+        err_console.print(f"[bold yellow]no peak:[/] the load never fell "
+                          f"{100 * cfg.resolved_loading.peak_drop_fraction:g} % below its "
+                          "maximum, so the values above are read at the largest load, not at "
+                          "failure (the calibration leaves such a test out of its means)",
+                          highlight=False, soft_wrap=True)
     console.print(f"wrote {out}/ (summary.json, config.toml"
                   + (", curve.csv, cracks.csv, figures/)" if test != "permeability" else ")"))
 
@@ -323,6 +329,12 @@ def calibrate(
     for row in calibration.table_rows(result):
         table.add_row(*calibration.table_cells(row))
     console.print(table)
+    for label, runs in (("", result["per_seed"]),
+                        ("held-out ", (result.get("held_out") or {}).get("per_seed", []))):
+        left_out = calibration.no_peak_runs(runs)
+        if left_out:
+            console.print(f"left out of the {label}means (no peak before the strain limit): "
+                          + ", ".join(left_out))
     console.print(f"{'converged' if result['converged'] else 'NOT converged'} after "
                   f"{len(result['history'])} evaluations in {time.perf_counter() - start:.0f} s; "
                   f"wrote {paths['recipe']} and {paths['table_md']}")
