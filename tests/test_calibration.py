@@ -294,3 +294,5 @@ def test_a_test_without_peak_is_left_out_of_the_means(monkeypatch):
     assert means["ucs_MPa"] == pytest.approx(101.0) and means["poisson_ratio"] == 0.24
     assert calibration.no_peak_runs(runs) == ["ucs seed 21"]
     assert calibration.seed_spread(runs)["ucs_MPa"]["max"] == 102.0
+    notes = calibration.left_out_notes({"per_seed": runs, "held_out": {"per_seed": runs[:1]}})
+    assert notes == ["Left out of the means (no peak before the strain limit): ucs seed 21."]

@@ -456,6 +456,15 @@ def no_peak_runs(runs: list[dict[str, Any]]) -> list[str]:
     return [f"{r['test']} seed {r['seed']}" for r in runs if r.get("peak_found") is False]
 
 
+def left_out_notes(result: dict[str, Any]) -> list[str]:
+    """One sentence per set of realisations (calibration, held-out) naming the tests
+    left out of its means because they found no peak."""
+    sets = (("", result["per_seed"]),
+            ("held-out ", (result.get("held_out") or {}).get("per_seed", [])))
+    return [f"Left out of the {label}means (no peak before the strain limit): "
+            + ", ".join(no_peak_runs(runs)) + "." for label, runs in sets if no_peak_runs(runs)]
+
+
 def _errors(achieved: dict[str, float], targets: dict[str, float]) -> dict[str, float]:
     return {k: achieved[k] / targets[k] - 1.0 for k in REPORTED if k in achieved}
 
@@ -588,10 +597,7 @@ def write_calibration(result: dict[str, Any], config: CalibrationConfig, out: st
     headings = table_headings(result)
     lines = ["| " + " | ".join(headings) + " |", "|---" * len(headings) + "|"]
     lines += ["| " + " | ".join(table_cells(r)) + " |" for r in rows]
-    left_out = no_peak_runs(result["per_seed"])
-    if left_out:
-        lines += ["", "Left out of the means (no peak before the strain limit): "
-                  + ", ".join(left_out) + "."]
+    lines += [line for note in left_out_notes(result) for line in ("", note)]
     table_md = write_text(out / "table.md", "\n".join(lines) + "\n")
     history = write_history(result["history"], out)
     write_config(config, out)
@@ -611,6 +617,7 @@ def write_calibration(result: dict[str, Any], config: CalibrationConfig, out: st
         "wall_time_s": wall_time_s,
         "per_seed": result["per_seed"],
         "no_peak": no_peak_runs(result["per_seed"]),
+        "held_out_no_peak": no_peak_runs((result.get("held_out") or {}).get("per_seed", [])),
     }
     write_json(out / "summary.json", summary)
     return {"recipe": recipe_path, "table_csv": table_csv, "table_md": table_md,

@@ -329,12 +329,8 @@ def calibrate(
     for row in calibration.table_rows(result):
         table.add_row(*calibration.table_cells(row))
     console.print(table)
-    for label, runs in (("", result["per_seed"]),
-                        ("held-out ", (result.get("held_out") or {}).get("per_seed", []))):
-        left_out = calibration.no_peak_runs(runs)
-        if left_out:
-            console.print(f"left out of the {label}means (no peak before the strain limit): "
-                          + ", ".join(left_out))
+    for note in calibration.left_out_notes(result):
+        console.print(note)
     console.print(f"{'converged' if result['converged'] else 'NOT converged'} after "
                   f"{len(result['history'])} evaluations in {time.perf_counter() - start:.0f} s; "
                   f"wrote {paths['recipe']} and {paths['table_md']}")
