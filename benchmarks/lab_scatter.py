@@ -7,7 +7,8 @@ Runs the UCS, BTS and NSCB tests of a recipe over seeds 0..N-1 (2-5 mm grains,
 the calibration's default) and prints, per quantity, the mean, the coefficient
 of variation between realisations, the Student-t 95 % interval of the mean,
 the means of the first and second half of the seeds, and how many realisations
-a mean known to +-5 % (95 %) would need: n = (t s / (0.05 mean))^2 with t ~ 2.
+a mean known to +-5 % (95 %) would need: n = (t s / (0.05 mean))^2, with t the
+Student quantile of the seeds run.
 
 A calibration matches the mean over its own seeds; when the scatter is large
 that mean says little about other grain structures (``validation_seeds`` in
@@ -27,7 +28,6 @@ from grainfrac.analysis import stats
 from grainfrac.assembly import GrainSpec
 from grainfrac.labtests.config import LAB_GRAINS
 
-QUANTITIES = ("ucs_MPa", "bts_MPa", "kic_MPa_sqrt_m", "youngs_modulus_GPa", "poisson_ratio")
 TOLERANCE = 0.05
 
 
@@ -50,7 +50,7 @@ def main() -> None:
           f"{', '.join(left_out) or 'none'}")
     print(f"{'quantity':<20} {'mean':>8} {'CV':>6} {'95 % CI of mean':>19} "
           f"{'first half':>10} {'second half':>11} {'n for 5 %':>9}")
-    for key in QUANTITIES:
+    for key in calibration.MEASURED:
         values = np.array(calibration.measured_values(runs, key))
         mean = stats.summarise(values)
         cv = mean.std / mean.mean
