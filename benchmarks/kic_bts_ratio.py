@@ -1,7 +1,8 @@
 """How high can K_IC / BTS go in the 2D model? (issue 6, calibration)
 
-    python benchmarks/kic_bts_ratio.py            # seeds 0-5, about 5 min on 2 cores
+    python benchmarks/kic_bts_ratio.py            # seeds 0-5, about 12 min on 2 cores
     python benchmarks/kic_bts_ratio.py --seeds 3  # seeds 0-2
+    python benchmarks/kic_bts_ratio.py --grains 1:2.5:0.625   # finer grains (slower)
 
 The laboratory's K_IC / BTS is 1.35 / 6.38 = 0.21 m^0.5 (paper Table 3). With
 the NSCB geometry of Table 3, K_IC = 0.0741 m^0.5 x the nominal bending stress
@@ -12,9 +13,12 @@ contacts soften does not split at their tensile strength but carries more
 until its inclined grain boundaries slide. This script measures, over several
 grain realisations, the mean BTS, K_IC and their ratio at the points of
 Table 2 that bracket those mechanisms: brittle, softening at the calibration
-start point, more fracture energy, less cohesion, less friction.
+start point, more fracture energy, less cohesion, less friction, a shear
+fracture energy G_II far below or above G_I, and wider Weibull scatter
+(shape k, multipliers of mean 1).
 
-Prints one line per point: factors on Table 2, G_I, mean BTS, mean K_IC, ratio.
+Prints one line per point: factors on Table 2, G_I, G_II / G_I, Weibull shape,
+mean BTS, mean K_IC, ratio.
 """
 
 from __future__ import annotations
@@ -27,45 +31,64 @@ from grainfrac.assembly import GrainSpec
 from grainfrac.labtests.config import LAB_GRAINS
 
 LAB_RATIO = 1.35 / 6.38
-# (label, factors on Table 2, G_I in J/m^2 on every pair, G_II = G_I)
+START = dict(tensile_strength=0.45, cohesion=0.35, friction=2.5)
+# (label, factors on Table 2, G_I in J/m^2 on every pair, G_II / G_I, Weibull
+# shape with multipliers of mean 1, or None for Table 2's k = 7 as a scale)
 POINTS = [
-    ("Table 2, brittle", {}, 0.0),
-    ("softening start", dict(tensile_strength=0.45, cohesion=0.35, friction=2.5), 130.0),
-    ("  more G_I", dict(tensile_strength=0.45, cohesion=0.35, friction=2.5), 300.0),
-    ("  less cohesion", dict(tensile_strength=0.45, cohesion=0.25, friction=2.5), 130.0),
-    ("  less sigma_T, c", dict(tensile_strength=0.3, cohesion=0.25, friction=2.5), 300.0),
-    ("  c not friction", dict(tensile_strength=0.45, cohesion=1.0, friction=1.0), 300.0),
+    ("Table 2, brittle", {}, 0.0, 1.0, None),
+    ("  Weibull k 1.5", {}, 0.0, 1.0, 1.5),
+    ("softening start", START, 130.0, 1.0, None),
+    ("  more G_I", START, 300.0, 1.0, None),
+    ("  less cohesion", dict(START, cohesion=0.25), 130.0, 1.0, None),
+    ("  less sigma_T, c", dict(START, tensile_strength=0.3, cohesion=0.25), 300.0, 1.0, None),
+    ("  c not friction", dict(START, cohesion=1.0, friction=1.0), 300.0, 1.0, None),
+    ("  brittle shear", START, 130.0, 0.1, None),
+    ("  brittle shear, G_I", START, 400.0, 0.0325, None),
+    ("  tough shear", START, 130.0, 10.0, None),
+    ("  Weibull k 2", START, 130.0, 1.0, 2.0),
 ]
 
 
-def with_fracture_energy(recipe: materials.RockRecipe, g: float) -> materials.RockRecipe:
-    """``recipe`` with G_I = G_II = ``g`` on every contact pair."""
+def varied(recipe: materials.RockRecipe, g: float, shear_ratio: float,
+           weibull_shape: float | None) -> materials.RockRecipe:
+    """``recipe`` with G_I = ``g`` and G_II = ``shear_ratio`` x ``g`` on every
+    contact pair, and the Weibull shape (multipliers of mean 1) if given."""
     data = recipe.model_dump(mode="json")
     data["contacts"] = {name: {**recipe.contact(name).model_dump(mode="json"),
                                "tensile_fracture_energy_J_per_m2": g,
-                               "shear_fracture_energy_J_per_m2": g}
+                               "shear_fracture_energy_J_per_m2": shear_ratio * g}
                         for name in recipe.pair_names()}
+    if weibull_shape is not None:
+        data["weibull"] = {**data["weibull"], "shape": weibull_shape, "table_value": "mean"}
     return materials.RockRecipe.model_validate(data)
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=6, help="grain realisations 0..N-1")
+    parser.add_argument("--grains", default=None, metavar="MIN:MAX:ZONE",
+                        help="grain edge lengths and zone size in mm (default: the lab's "
+                        f"{LAB_GRAINS['min_edge_mm']:g}:{LAB_GRAINS['max_edge_mm']:g}:"
+                        f"{LAB_GRAINS['zone_size_mm']:g})")
     args = parser.parse_args()
+    grains = GrainSpec(**LAB_GRAINS) if args.grains is None else GrainSpec(**dict(zip(
+        ("min_edge_mm", "max_edge_mm", "zone_size_mm"), map(float, args.grains.split(":")),
+        strict=True)))
     table2 = materials.load_recipe("strathbogie-granite")
-    print(f"lab K_IC / BTS = {LAB_RATIO:.3f} m^0.5; seeds 0-{args.seeds - 1}, "
-          f"grains {LAB_GRAINS['min_edge_mm']:g}-{LAB_GRAINS['max_edge_mm']:g} mm")
-    print(f"{'point':<20} {'factors':<44} {'G_I':>5} {'BTS':>6} {'K_IC':>6} "
-          f"{'K/BTS':>6} {'wall':>6}")
-    with calibration.LabBench(list(range(args.seeds)), GrainSpec(**LAB_GRAINS)) as bench:
-        for label, factors, g in POINTS:
-            recipe = calibration.scaled_recipe(with_fracture_energy(table2, g), factors)
+    print(f"lab K_IC / BTS = {LAB_RATIO:.3f} m^0.5; seeds 0-{args.seeds - 1}, grains "
+          f"{grains.min_edge_mm:g}-{grains.max_edge_mm:g} mm, zones {grains.zone_size_mm:g} mm")
+    print(f"{'point':<22} {'factors':<52} {'G_I':>5} {'G_II/I':>6} {'k':>4} {'BTS':>6} "
+          f"{'K_IC':>6} {'K/BTS':>6} {'wall':>6}")
+    with calibration.LabBench(list(range(args.seeds)), grains) as bench:
+        for label, factors, g, shear_ratio, shape in POINTS:
+            recipe = calibration.scaled_recipe(varied(table2, g, shear_ratio, shape), factors)
             start = time.perf_counter()
             means, _ = bench.measure(recipe, ("bts", "nscb"))
             bts, kic = means["bts_MPa"], means["kic_MPa_sqrt_m"]
             text = ", ".join(f"{k} {v:g}" for k, v in factors.items()) or "-"
-            print(f"{label:<20} {text:<44} {g:>5.0f} {bts:>6.2f} {kic:>6.3f} "
-                  f"{kic / bts:>6.3f} {time.perf_counter() - start:>5.0f}s", flush=True)
+            print(f"{label:<22} {text:<52} {g:>5.0f} {shear_ratio:>6.3g} "
+                  f"{shape or 7:>4g} {bts:>6.2f} {kic:>6.3f} {kic / bts:>6.3f} "
+                  f"{time.perf_counter() - start:>5.0f}s", flush=True)
 
 
 if __name__ == "__main__":
