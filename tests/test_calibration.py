@@ -296,3 +296,30 @@ def test_a_test_without_peak_is_left_out_of_the_means(monkeypatch):
     assert calibration.seed_spread(runs)["ucs_MPa"]["max"] == 102.0
     notes = calibration.left_out_notes({"per_seed": runs, "held_out": {"per_seed": runs[:1]}})
     assert notes == ["Left out of the means (no peak before the strain limit): ucs seed 21."]
+
+
+def test_a_step_where_every_specimen_locks_up_ends_the_search_at_the_best(monkeypatch):
+    """Measured: a Newton step to 3 x friction left every UCS specimen without a
+    peak, so E, nu and UCS had no value; the search keeps what it found."""
+    def bench(self, recipe, tests):
+        means, runs = _power_law_bench(self, recipe, tests)
+        if _factors(recipe)["friction"] > 1.05:
+            for key in ("ucs_MPa", "youngs_modulus_GPa", "poisson_ratio"):
+                means.pop(key)
+        return means, runs
+
+    monkeypatch.setattr(LabBench, "measure", bench)
+    config = validate(CalibrationConfig, {
+        "seeds": [0], "tolerance": 0.01, "max_evaluations": 30,
+        "factors": {"stiffness": "youngs_modulus_GPa", "friction": "ucs_MPa"}})
+    messages = []
+    result = calibrate(config, BASE, log=messages.append)
+    assert not result["converged"]
+    assert any("no realisation measured ucs_MPa, youngs_modulus_GPa"
+               in m and "stops at the best" in m for m in messages)
+    assert result["factors"]["friction"] <= 1.05
+
+    config = validate(CalibrationConfig, {"seeds": [0], "factors": {"friction": "ucs_MPa"},
+                                          "start": {"friction": 2.0}})
+    with pytest.raises(GrainfracError, match="no realisation measured ucs_MPa"):
+        calibrate(config, BASE)

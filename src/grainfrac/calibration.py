@@ -388,6 +388,16 @@ def _calibrate(config: CalibrationConfig, recipe: materials.RockRecipe, bench: L
             means = {k: earlier[k] for k in MEASURED if earlier.get(k) is not None}
         else:
             means, _ = bench.measure(scaled_recipe(recipe, factors), tests)
+        missing = sorted({pairing[n] for n in unknowns} - set(means))
+        if missing:
+            # Every realisation locked up (no peak): no value for the root finder.
+            reason = (f"evaluation {len(history) + 1}: no realisation measured "
+                      f"{', '.join(missing)} (no peak before the strain limit) at factors "
+                      + ", ".join(f"{k} {v:.4g}" for k, v in factors.items()))
+            if not history:
+                raise GrainfracError(f"calibration: {reason}")
+            say(f"{reason}; the search stops at the best evaluation so far")
+            raise _Stop
         r = np.array([math.log(means[pairing[n]] / targets[pairing[n]]) for n in unknowns])
         if not np.all(np.isfinite(r)):
             raise GrainfracError(f"calibration: a lab test gave no value at factors {factors}")
