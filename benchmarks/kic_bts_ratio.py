@@ -1,6 +1,6 @@
 """How high can K_IC / BTS go in the 2D model? (issue 6, calibration)
 
-    python benchmarks/kic_bts_ratio.py            # seeds 0-5, about 12 min on 2 cores
+    python benchmarks/kic_bts_ratio.py            # seeds 0-5, about 9 min on 2 cores
     python benchmarks/kic_bts_ratio.py --seeds 3  # seeds 0-2
     python benchmarks/kic_bts_ratio.py --grains 1:2.5:0.625   # finer grains (slower)
 
