@@ -159,6 +159,10 @@ def test_write_calibration_writes_recipe_table_history(monkeypatch, tmp_path):
     recipe = materials.load_recipe(paths["recipe"])
     assert recipe.name == "demo-rock"
     assert recipe.hydraulic.initial_aperture_m == pytest.approx(result["initial_aperture_m"])
+    # The header names what was solved for and what was only measured.
+    header = paths["recipe"].read_text().splitlines()[0]
+    assert header == ("# demo-rock: calibrated by grainfrac against UCS (MPa), BTS (MPa), E (GPa), "
+                      "permeability (m2); K_IC (MPa m^0.5), nu measured, not solved for")
     table = paths["table_md"].read_text()
     assert "UCS (MPa)" in table and "K_IC" in table and "realisations (min-max)" in table
     assert "mean 95 % CI" in table
@@ -323,3 +327,32 @@ def test_a_step_where_every_specimen_locks_up_ends_the_search_at_the_best(monkey
                                           "start": {"friction": 2.0}})
     with pytest.raises(GrainfracError, match="no realisation measured ucs_MPa"):
         calibrate(config, BASE)
+
+
+
+def test_the_2d_preset_is_table_2_scaled_by_its_calibration_factors():
+    """strathbogie-granite-2d-ucs-bts is what `grainfrac calibrate
+    examples/calibration/strathbogie-2d-ucs-bts.toml` wrote: Table 2 with the factors its
+    header states (to 4 digits), alike on every mineral and contact pair."""
+    preset = materials.load_recipe("strathbogie-granite-2d-ucs-bts")
+    table2 = materials.load_recipe("strathbogie-granite")
+    mm, mm2 = preset.contacts["M-M"], table2.contacts["M-M"]
+    stiffness = mm.normal_stiffness_GPa_per_m / mm2.normal_stiffness_GPa_per_m
+    factors = {
+        "stiffness": stiffness,
+        "shear_ratio": mm.shear_stiffness_GPa_per_m / mm2.shear_stiffness_GPa_per_m / stiffness,
+        "tensile_strength": mm.tensile_strength_MPa / mm2.tensile_strength_MPa,
+        "cohesion": mm.cohesion_MPa / mm2.cohesion_MPa,
+    }
+    stated = {"stiffness": 1.0284, "shear_ratio": 2.3102, "tensile_strength": 0.4020,
+              "cohesion": 1.1315}
+    assert {k: round(v, 4) for k, v in factors.items()} == stated
+    rebuilt = calibration.scaled_recipe(
+        table2, factors, initial_aperture_m=preset.hydraulic.initial_aperture_m,
+        name=preset.name)
+    for a, b in zip(rebuilt.minerals, preset.minerals, strict=True):
+        assert a.youngs_modulus_GPa == pytest.approx(b.youngs_modulus_GPa, rel=1e-12)
+    for pair, contact in preset.contacts.items():
+        for key, value in contact.model_dump().items():
+            assert getattr(rebuilt.contacts[pair], key) == pytest.approx(value, rel=1e-12), (
+                pair, key)

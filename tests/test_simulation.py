@@ -6,6 +6,7 @@ import csv
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 from typer.testing import CliRunner
 
@@ -13,7 +14,7 @@ from grainfrac.cli import app
 from grainfrac.io.config import validate
 from grainfrac.physics.coupled import HydroMechanicalSolver
 from grainfrac.scenario import Scenario, write_resolved
-from grainfrac.simulation import RunFailed, run_scenario
+from grainfrac.simulation import Run, RunFailed, run_scenario
 
 SMALL = {
     "name": "small-hs",
@@ -187,3 +188,25 @@ def test_analysis_from_the_run_directory_alone_matches_the_summary(reference):
     print(f"\nfrom CSVs: breakdown {again['breakdown_pressure_MPa']:.3f} MPa, "
           f"{again['n_radial_fractures']} radial fractures at 10 mm, "
           f"{wider['n_radial_fractures']} at 15 mm")
+
+
+def test_injection_stops_at_the_boundary_only_for_cracks_it_made(tmp_path):
+    """A crack an earlier stage left at the boundary (SCDA in a weak rock) does not end
+    the injection at its first step; one made since injection started does."""
+    sc = _scenario()
+    run = Run(sc, sc.recipe(), tmp_path)
+    mesh = run.assembly.mesh
+    near = mesh.grains.outline.side_of_points(mesh.contact_xy, mesh.zone_size)
+    edge = int(np.flatnonzero(near["right"])[0])
+    run.state.injection_start_time = 1.0e-3
+
+    def crack(time_s: float) -> None:
+        for record, value in zip((run.solver.cracks.contact, run.solver.cracks.time,
+                                  run.solver.cracks.mode, run.solver.cracks.energy),
+                                 (edge, time_s, 1, 0.0), strict=True):
+            record.append(value)
+
+    crack(0.5e-3)  # before injection: charging's crack
+    assert not run._fracture_at_boundary()
+    crack(1.5e-3)  # during injection
+    assert run._fracture_at_boundary()

@@ -590,8 +590,12 @@ def write_calibration(result: dict[str, Any], config: CalibrationConfig, out: st
     """Write the calibrated recipe, the target-vs-achieved table and the history."""
     out = Path(out)
     recipe: materials.RockRecipe = result["recipe"]
-    quantities = ", ".join(LABELS[k] for k in REPORTED)
-    header = (f"# {recipe.name}: calibrated by grainfrac against {quantities}\n"
+    # a0 is always solved from the permeability; the other targets only if a factor is paired.
+    solved = {*config.pairing().values(), "permeability_m2"}
+    matched = ", ".join(LABELS[k] for k in REPORTED if k in solved)
+    checked = ", ".join(LABELS[k] for k in REPORTED if k not in solved)
+    header = (f"# {recipe.name}: calibrated by grainfrac against {matched}"
+              + (f"; {checked} measured, not solved for" if checked else "") + "\n"
               f"# over seeds {config.seeds} at grains {config.grains.min_edge_mm:g}-"
               f"{config.grains.max_edge_mm:g} mm (zone {config.grains.zone_size_mm:g} mm).\n"
               f"# Factors on the start recipe: "

@@ -303,7 +303,8 @@ class InjectStage(StrictModel):
 
     Ends after ``duration_ms`` or when ``volume_ml`` has been injected,
     whichever comes first (at least one is required), or earlier when
-    ``stop_at_boundary`` and a fracture reaches the specimen's outer boundary.
+    ``stop_at_boundary`` and a crack made since injection started reaches the
+    specimen's outer boundary (cracks of earlier stages do not count).
     """
 
     kind: Literal["inject"] = "inject"
@@ -311,7 +312,8 @@ class InjectStage(StrictModel):
     duration_ms: float | None = Field(None, gt=0, description="injection time [ms]")
     volume_ml: float | None = Field(None, gt=0, description="injected volume [ml]")
     time_step_ms: float = Field(0.01, gt=0, description="fluid (coupling) time step [ms]")
-    stop_at_boundary: bool = Field(True, description="stop when a fracture reaches the boundary")
+    stop_at_boundary: bool = Field(
+        True, description="stop when a crack made by the injection reaches the boundary")
 
     @model_validator(mode="after")
     def _ends(self) -> InjectStage:

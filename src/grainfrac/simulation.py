@@ -312,8 +312,15 @@ class Run:
         return done
 
     def _fracture_at_boundary(self) -> bool:
-        """Whether a crack lies within reach of an outer side (not the borehole wall)."""
-        rock = self.rock_cracks()
+        """Whether a crack made since injection started lies within reach of an outer
+        side (not the borehole wall).
+
+        Cracks of earlier stages do not count: after SCDA charging in a weak rock a
+        radial crack can already reach the boundary, and the injection that is to
+        extend the fractures would otherwise end at its first step.
+        """
+        since = self.state.injection_start_time
+        rock = self.rock_cracks() & (np.asarray(self.solver.cracks.time) >= since)
         if not rock.any():
             return False
         contacts = np.asarray(self.solver.cracks.contact, dtype=np.int64)[rock]
