@@ -329,7 +329,6 @@ def test_a_step_where_every_specimen_locks_up_ends_the_search_at_the_best(monkey
         calibrate(config, BASE)
 
 
-
 def test_the_2d_preset_is_table_2_scaled_by_its_calibration_factors():
     """strathbogie-granite-2d-ucs-bts is what `grainfrac calibrate
     examples/calibration/strathbogie-2d-ucs-bts.toml` wrote: Table 2 with the factors its
