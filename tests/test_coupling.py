@@ -12,12 +12,15 @@ the well, then runaway velocities).
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 import pytest
 
 from grainfrac.assembly import SpecimenConfig, build_assembly
 from grainfrac.io.config import validate
 from grainfrac.loading.insitu import STRESS_CASES, initialise_in_situ
+from grainfrac.physics import coupled as coupled_module
 from grainfrac.physics import flow
 from grainfrac.physics.coupled import HydroMechanicalSolver, pressure_jump_limit
 from grainfrac.physics.model import build_mechanical_model
@@ -69,6 +72,110 @@ def test_broken_contact_near_opening_counts_as_crack(coupled):
     assert held == pytest.approx(intact, rel=1e-12)
     # A crack at least one zone long opens by A L / E', far more than the spring.
     assert loose - intact > 10.0 * spring
+
+
+def test_a_loose_grain_is_held_by_contact_springs(coupled):
+    """A grain with no bonded boundary left moves bodily against its contacts: the
+    sub-contacts around it keep the spring compliance A / kn, not a crack's."""
+    m = coupled.mechanics
+    mesh = coupled.assembly.mesh
+    net = coupled.network
+    saved = m.bonded.copy(), m.sigma_n.copy()
+    pairs = mesh.interface_grains[mesh.contact_interface]
+    grain = pairs[int(np.argmax(m.model.contact_area)), 0]
+    around = np.flatnonzero((pairs == grain).any(axis=1))
+    unknowns = net.contact_unknown[around]
+    try:
+        intact = coupled.pore_compliance()[unknowns]
+        m.bonded[around[1:]] = False
+        m.sigma_n[around] = 0.0
+        one_bond_left = coupled.pore_compliance()[unknowns]
+        m.bonded[around[0]] = False
+        loose = coupled.pore_compliance()[unknowns]
+    finally:
+        m.bonded[:], m.sigma_n[:] = saved
+    print(f"\n{len(around)} sub-contacts around grain {grain}: total compliance intact "
+          f"{intact.sum():.3e}, one bond left {one_bond_left.sum():.3e}, loose "
+          f"{loose.sum():.3e} m3/Pa")
+    assert one_bond_left.sum() > 10.0 * intact.sum()
+    assert np.allclose(loose, intact, rtol=1e-12)
+
+
+def test_undrained_pressure_fits_the_content_into_the_void(coupled):
+    """Same content in a void smaller by dV: the pressure rises by dV / (V c + beta);
+    in a void larger than the content it is zero (unsaturated)."""
+    net, fluid = coupled.network, coupled.fluid
+    aperture = coupled.aperture()
+    state = flow.initial_state(net, aperture, fluid, pressure=2.0 * MPA)
+    beta = coupled.pore_compliance()
+    same = flow.undrained_pressure(net, state, aperture, fluid, beta)
+    free = ~net.fixed
+    assert np.allclose(same[free], 2.0 * MPA, rtol=1e-9)
+    v = flow.storage_volume(net, aperture)
+    v_closed = flow.storage_volume(net, 0.9 * aperture)
+    c = np.full(net.n_unknowns, 1.0 / fluid.bulk_modulus)
+    c[net.well_unknown] = net.well_compressibility
+    closed = flow.undrained_pressure(net, state, 0.9 * aperture, fluid, beta)
+    expected = 2.0 * MPA + (state.content - v_closed * (1.0 + c * 2.0 * MPA)) / (
+        v_closed * c + beta)
+    assert np.allclose(closed[free], expected[free], rtol=1e-9)
+    assert np.all(closed[free] >= 2.0 * MPA)
+    opened = flow.undrained_pressure(net, state, 3.0 * aperture, fluid, np.zeros_like(beta))
+    pores = free & (v > 0)
+    pores[net.well_unknown] = False  # the borehole's own volume does not grow
+    assert np.all(opened[pores] == 0.0)
+
+
+def _spoil_content(monkeypatch, node_of, extra_pressure: float, every_attempt: bool):
+    """Make ``_step`` leave ``extra_pressure`` of undrained overpressure at one node
+    (as a grain closing a fluid-filled gap does); return the list of step sizes."""
+    calls = []
+    original = HydroMechanicalSolver._step
+
+    def step(self, dt, rate):
+        calls.append(dt)
+        original(self, dt, rate)
+        if every_attempt or len(calls) == 1:
+            node = node_of(self)
+            c = (self.network.well_compressibility if node == self.network.well_unknown
+                 else 1.0 / self.fluid.bulk_modulus)
+            storage = self.state.volume[node] * c + self.pore_compliance()[node]
+            self.state.content[node] += extra_pressure * storage
+
+    monkeypatch.setattr(HydroMechanicalSolver, "_step", step)
+    return calls
+
+
+def test_a_void_squeezed_during_the_step_halves_it(coupled, monkeypatch):
+    """The mechanics runs at the pressure of the step's start; fluid it squeezes
+    (more content than the void holds at that pressure) counts as a jump."""
+    interior = int(np.flatnonzero(~coupled.network.fixed)[0])
+    calls = _spoil_content(monkeypatch, lambda s: interior, 5.0 * MPA, every_attempt=False)
+    rejected0 = coupled.rejected_steps
+    coupled.advance(2e-5, 1e-6)
+    assert calls == [2e-5, 1e-5, 1e-5]
+    assert coupled.rejected_steps == rejected0 + 1
+
+
+def test_a_jump_in_the_well_is_never_accepted_as_unresolved(coupled, monkeypatch):
+    """Elsewhere a jump that halving does not shrink is accepted (a crack-tip node
+    flipping); in the well, whose pressure is the result, the step is halved down
+    to the last level."""
+    monkeypatch.setattr(coupled_module, "MAX_HALVINGS", 2)
+    mech_saved = coupled.mechanics.save_state()
+    fluid_saved = copy.deepcopy(coupled.state)
+    try:
+        interior = int(np.flatnonzero(~coupled.network.fixed)[0])
+        calls = _spoil_content(monkeypatch, lambda s: interior, 5.0 * MPA, every_attempt=True)
+        coupled.advance(2e-5, 1e-6)
+        assert calls == [2e-5, 1e-5, 1e-5]
+        calls = _spoil_content(monkeypatch, lambda s: s.network.well_unknown, 5.0 * MPA,
+                               every_attempt=True)
+        coupled.advance(2e-5, 1e-6)
+        assert calls == [2e-5, 1e-5, 5e-6, 5e-6, 1e-5, 5e-6, 5e-6]
+    finally:
+        coupled.mechanics.restore_state(mech_saved)
+        coupled.state = fluid_saved
 
 
 def test_rejected_step_is_undone_and_halved(coupled, monkeypatch):

@@ -123,14 +123,25 @@ class HydroMechanicalSolver:
         spike (both measured), hence the measured length.
         """
         m = self.mechanics
-        is_open = ~m.bonded & (m.sigma_n < pressure_jump_limit(m.contact_pressure))
-        compliance = m.model.contact_area / m.model.normal_stiffness
+        n = self.assembly.mesh.n_contacts
+        is_open = ~m.bonded[:n] & (m.sigma_n[:n] < pressure_jump_limit(m.contact_pressure[:n]))
+        is_open &= ~self._on_loose_grain(m.bonded[:n])
+        compliance = m.model.contact_area[:n] / m.model.normal_stiffness[:n]
         if is_open.any():
             length = self._open_crack_length(is_open)
             crack = CRACK_COMPLIANCE_FACTOR * m.model.contact_area * length / self.crack_modulus
             compliance = np.where(is_open, np.maximum(compliance, crack), compliance)
         return np.bincount(self.network.contact_unknown, weights=compliance,
                            minlength=self.network.n_unknowns)
+
+    def _on_loose_grain(self, bonded: np.ndarray) -> np.ndarray:
+        """Sub-contacts on the boundary of a grain that has no bonded boundary left."""
+        pairs = self.assembly.mesh.interface_grains[self.assembly.mesh.contact_interface]
+        n_grains = int(pairs.max()) + 1
+        held = np.zeros(n_grains, dtype=bool)
+        held[pairs[bonded, 0]] = True
+        held[pairs[bonded, 1]] = True
+        return ~held[pairs[:, 0]] | ~held[pairs[:, 1]]
 
     def _open_crack_length(self, is_open: np.ndarray) -> np.ndarray:
         """Length (m) of the open crack each sub-contact belongs to (0 where closed)."""
@@ -181,10 +192,12 @@ class HydroMechanicalSolver:
         jump = math.inf
         try:
             self._step(dt, injection_rate)
-            jump, content_ok = self._step_check(fluid_saved.pressure)
+            jump, well_jump, content_ok = self._step_check(fluid_saved.pressure)
             # A jump that halving the step hardly shrinks is not a matter of time
-            # resolution (a crack-tip node opening and closing): accept it.
-            accepted = content_ok and (jump <= 1.0 or jump > UNRESOLVED_JUMP * parent_jump)
+            # resolution (a crack-tip node opening and closing): accept it, but
+            # not in the well, whose pressure is the result.
+            accepted = content_ok and well_jump <= 1.0 and (
+                jump <= 1.0 or jump > UNRESOLVED_JUMP * parent_jump)
         except NumericalBlowUp:
             if depth >= MAX_HALVINGS:
                 raise
@@ -198,15 +211,31 @@ class HydroMechanicalSolver:
         for _ in range(2):
             self._advance_controlled(0.5 * dt, injection_rate, depth + 1, jump)
 
-    def _step_check(self, before: np.ndarray) -> tuple[float, bool]:
+    def _step_check(self, before: np.ndarray) -> tuple[float, float, bool]:
         """The largest pressure change of the step just taken over its
-        :func:`pressure_jump_limit` (<= 1 is acceptable), and whether every free
-        fluid node kept a non-negative content."""
+        :func:`pressure_jump_limit` (<= 1 is acceptable), the same in the well,
+        and whether every free fluid node kept a non-negative content.
+
+        The change counts the pressure the fluid would need to fit the voids the
+        mechanics left at the end of the step (:func:`flow.undrained_pressure`),
+        not only the pressure the fluid solve gave at its start: the mechanics
+        runs at that pressure, and a grain that closes a gap with fluid in it
+        overshoots otherwise. Measured (hybrid, 15 % fissures, seed 0, the
+        lab-calibrated 2D rock): a loose grain closed a half-filled gap from 3 to
+        0.2 um within one 0.01 ms step, the next fluid solve put 139 MPa there,
+        halving that next step could not shrink it, and the run blew up.
+        """
         free = ~self.network.fixed
-        jump = np.abs(self.state.pressure - before)[free]
-        limit = pressure_jump_limit(np.maximum(np.abs(before[free]), self.well_pressure))
-        ratio = float(np.max(jump / limit)) if jump.size else 0.0
-        return ratio, bool(np.all(self.state.content[free] >= -1e-6 * self.state.volume[free]))
+        undrained = flow.undrained_pressure(self.network, self.state, self.aperture(),
+                                            self.fluid, self.pore_compliance())
+        after = np.maximum(self.state.pressure, undrained)
+        ratio = np.abs(after - before) / pressure_jump_limit(
+            np.maximum(np.abs(before), self.well_pressure))
+        well = self.network.well_unknown
+        well_ratio = float(ratio[well]) if well >= 0 else 0.0
+        worst = float(np.max(ratio[free])) if free.any() else 0.0
+        content_ok = bool(np.all(self.state.content[free] >= -1e-6 * self.state.volume[free]))
+        return worst, well_ratio, content_ok
 
     def _step(self, dt: float, injection_rate: float) -> None:
         flow.implicit_step(self.network, self.state, self.aperture(), dt, self.fluid,

@@ -254,6 +254,20 @@ def implicit_step(network: FlowNetwork, state: FluidState, aperture: np.ndarray,
     state.volume = v_new
 
 
+def undrained_pressure(network: FlowNetwork, state: FluidState, aperture: np.ndarray,
+                       fluid: FluidProperties, compliance: np.ndarray) -> np.ndarray:
+    """Pressure (Pa) at which each unknown's fluid content fits the void of ``aperture``.
+
+    The same linearisation as :func:`implicit_step` without flow: storage
+    ``V c + beta`` about the current pressure. Where the void has grown past
+    the content the node is unsaturated and the result is 0.
+    """
+    v = storage_volume(network, aperture)
+    c = _compressibility(network, fluid)
+    excess = state.content - v * (1.0 + c * state.pressure)
+    return np.maximum(state.pressure + excess / (v * c + compliance), 0.0)
+
+
 def _solve_without_suction(matrix: sp.csr_matrix, rhs: np.ndarray, fixed: np.ndarray,
                            fixed_pressure: np.ndarray, max_rounds: int = 50) -> np.ndarray:
     """Solve ``matrix p = rhs`` with ``p >= 0`` on the free unknowns (active set).
