@@ -85,6 +85,8 @@ class HydroMechanicalSolver:
         self._wall_nodes[mesh.fluid_node_sets.get("borehole", np.zeros(0, np.int64))] = True
         outline = mesh.grains.outline
         self._well_diameter = 2.0 * outline.borehole_radius
+        self._contact_grains = mesh.interface_grains[mesh.contact_interface]
+        self._n_grains = int(self._contact_grains.max()) + 1
         self.history = CoupledHistory()
         self.rejected_steps = 0
         # (step count, apertures, pore compliance) at the end of the last checked
@@ -146,9 +148,8 @@ class HydroMechanicalSolver:
 
     def _on_loose_grain(self, bonded: np.ndarray) -> np.ndarray:
         """Sub-contacts on the boundary of a grain that has no bonded boundary left."""
-        pairs = self.assembly.mesh.interface_grains[self.assembly.mesh.contact_interface]
-        n_grains = int(pairs.max()) + 1
-        held = np.zeros(n_grains, dtype=bool)
+        pairs = self._contact_grains
+        held = np.zeros(self._n_grains, dtype=bool)
         held[pairs[bonded, 0]] = True
         held[pairs[bonded, 1]] = True
         return ~held[pairs[:, 0]] | ~held[pairs[:, 1]]
@@ -238,7 +239,7 @@ class HydroMechanicalSolver:
         halving that next step could not shrink it, and the run blew up.
         """
         free = ~self.network.fixed
-        aperture, compliance = self._current_pores(refresh=True)
+        aperture, compliance = self._current_pores()
         undrained = flow.undrained_pressure(self.network, self.state, aperture, self.fluid,
                                             compliance)
         after = np.maximum(self.state.pressure, undrained)
@@ -250,10 +251,10 @@ class HydroMechanicalSolver:
         content_ok = bool(np.all(self.state.content[free] >= -1e-6 * self.state.volume[free]))
         return worst, well_ratio, content_ok
 
-    def _current_pores(self, refresh: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    def _current_pores(self) -> tuple[np.ndarray, np.ndarray]:
         """Apertures and pore compliance of the current mechanical state."""
         count = self.mechanics.step_count
-        if refresh or self._pores is None or self._pores[0] != count:
+        if self._pores is None or self._pores[0] != count:
             self._pores = (count, self.aperture(), self.pore_compliance())
         return self._pores[1], self._pores[2]
 
