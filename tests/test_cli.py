@@ -5,6 +5,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
+import pytest
 from typer.testing import CliRunner
 
 from grainfrac.cli import app
@@ -60,3 +62,46 @@ def test_flat_namespace_exposes_the_verbs():
                  "build_report"):
         assert callable(getattr(grainfrac, name)), name
     assert grainfrac.build_specimen({"specimen": {"shape": "rectangle"}}).n_grains > 3
+
+
+def _radial_run_dir(path: Path) -> Path:
+    """A hand-made SCDA run directory: four radial crack lines from the 5 mm well wall
+    out to 12 mm (at 0, 90, 180, 270 deg) and two out to 8.5 mm (at 135, 315 deg),
+    cracks 1 mm apart."""
+    path.mkdir()
+    (path / "config.toml").write_text(
+        '[specimen]\nborehole_diameter_mm = 10.0\n[grains]\nzone_size_mm = 2.0\n')
+    (path / "history.csv").write_text(
+        "time_s,stage,well_pressure_MPa,expansive_pressure_MPa\n"
+        "0.001,scda,0.0,20.0\n0.002,scda,0.0,45.0\n")
+    rows = ["time_s,x_mm,y_mm,mode,contact_type,energy_J"]
+    for angle, end in ((0, 12), (90, 12), (180, 12), (270, 12), (135, 8.5), (315, 8.5)):
+        c, s = np.cos(np.radians(angle)), np.sin(np.radians(angle))
+        for r in np.arange(5.5, end + 0.01, 1.0):
+            rows.append(f"0.002,{r * c:.6f},{r * s:.6f},tensile,F-Q,1e-6")
+    (path / "cracks.csv").write_text("\n".join(rows) + "\n")
+    return path
+
+
+def test_analyse_recounts_radial_fractures_at_other_circles(tmp_path):
+    run = _radial_run_dir(tmp_path / "scda")
+    result = runner.invoke(app, ["analyse", str(run), "--radius-mm", "8", "--radius-mm", "10",
+                                 "--json"])
+    assert result.exit_code == 0, result.output
+    got = json.loads(result.output)[str(run)]
+    assert got["n_radial_fractures_by_radius_mm"] == {"8": 6, "10": 4}
+    assert got["n_cracks"] == 4 * 7 + 2 * 4
+    assert got["peak_expansive_pressure_MPa"] == 45.0
+    assert got["fracture_extent_mm"] == pytest.approx(11.5)
+    table = runner.invoke(app, ["analyse", str(run)], env={"COLUMNS": "200"})
+    assert table.exit_code == 0, table.output
+    assert "radial" in table.output and "11.5" in table.output
+
+
+def test_analyse_rejects_a_circle_inside_the_borehole(tmp_path):
+    run = _radial_run_dir(tmp_path / "scda")
+    result = runner.invoke(app, ["analyse", str(run), "--radius-mm", "4"])
+    assert result.exit_code == 2
+    assert "radius_mm" in result.output and "> 5 mm" in result.output
+    missing = runner.invoke(app, ["analyse", str(tmp_path / "nope")])
+    assert missing.exit_code == 2 and "not a run directory" in missing.output

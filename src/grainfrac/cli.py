@@ -337,6 +337,50 @@ def calibrate(
 
 
 @app.command()
+def analyse(
+    run_dirs: Annotated[list[Path], typer.Argument(help="One or more run directories.")],
+    radius_mm: Annotated[list[float] | None, typer.Option(
+        "--radius-mm", help="Circle for counting radial fractures (mm); repeat the option for "
+        "several (default: 2 x borehole radius).")] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of a table.")
+                       ] = False,
+) -> None:
+    """Recompute a finished run's measures from its directory alone (other counting circles)."""
+    import json
+
+    from grainfrac.analysis import analyse_run
+
+    radii = radius_mm or [None]
+    results: dict[str, dict] = {}
+    try:
+        for path in run_dirs:
+            by_radius = [analyse_run(path, radius_mm=r) for r in radii]
+            result = by_radius[0]
+            result["n_radial_fractures_by_radius_mm"] = {
+                "default" if r is None else f"{r:g}": a["n_radial_fractures"]
+                for r, a in zip(radii, by_radius, strict=True)}
+            results[str(path)] = result
+    except GrainfracError as exc:
+        _fail(exc)
+    if as_json:
+        console.print_json(json.dumps(results))
+        return
+    table = Table(title="run analysis")
+    table.add_column("run", overflow="fold")
+    table.add_column("breakdown MPa", justify="right")
+    table.add_column("cracks T/S", justify="right")
+    for r in radii:
+        table.add_column("radial" if r is None else f"radial r={r:g}mm", justify="right")
+    table.add_column("extent mm", justify="right")
+    for name, a in results.items():
+        table.add_row(name, _fmt(a["breakdown_pressure_MPa"]),
+                      f"{a['n_tensile_cracks']}/{a['n_shear_cracks']}",
+                      *(str(n) for n in a["n_radial_fractures_by_radius_mm"].values()),
+                      _fmt(a["fracture_extent_mm"], ".1f"))
+    console.print(table)
+
+
+@app.command()
 def report(
     run_dirs: Annotated[list[Path], typer.Argument(help="One or more run directories.")],
     out: Annotated[Path | None, typer.Option("--out", help="HTML file (default: report.html "

@@ -46,6 +46,10 @@ def analyse_run(path: str | Path, *, radius_mm: float | None = None) -> dict[str
         raise GrainfracError(f"{path} is not a run directory: {exc.filename} missing") from None
     specimen = config.get("specimen", {})
     well_radius = 0.5 * specimen.get("borehole_diameter_mm", 0.0) * MM
+    if radius_mm is not None and not radius_mm * MM > well_radius:
+        raise GrainfracError(
+            f"radius_mm: the counting circle must lie outside the borehole, > "
+            f"{well_radius / MM:g} mm (got {radius_mm:g})")
     zone = config.get("grains", {}).get("zone_size_mm", 2.0) * MM
 
     out: dict[str, Any] = {"breakdown_pressure_MPa": None, "breakdown_time_s": None,
