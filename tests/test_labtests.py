@@ -238,6 +238,24 @@ def test_permeability_scales_with_the_cube_of_the_aperture():
     assert k[1] / k[0] == pytest.approx(8.0, rel=1e-9)
 
 
+def test_fissured_disk_keeps_its_grains_and_splits_at_a_lower_load(table2_runs):
+    """Pre-existing microcracks in a lab specimen (``fissures``): the same grain structure
+    with round(f x N) unbonded boundaries, and a Brazilian disk that splits lower."""
+    from grainfrac.assembly import build_assembly
+
+    intact = lab_test_config("bts", seed=0)
+    fissured = lab_test_config("bts", seed=0, fissures={"fraction": 0.15})
+    a, b = (build_assembly(c.specimen_config(), c.recipe()) for c in (intact, fissured))
+    np.testing.assert_array_equal(a.mesh.node_xy, b.mesh.node_xy)
+    assert not a.interface_fissure.any()
+    assert b.interface_fissure.sum() == round(0.15 * b.mesh.n_interfaces)
+    assert np.all(b.interface_tensile_strength[b.interface_fissure] == 0.0)
+    weak = measure(fissured)["summary"]["bts_MPa"]
+    print(f"\nBTS seed 0: intact {table2_runs['bts']['bts_MPa']:.2f} MPa, "
+          f"15 % fissures {weak:.2f} MPa")
+    assert weak < 0.8 * table2_runs["bts"]["bts_MPa"]
+
+
 # ---------------------------------------------------------------------------------
 # input errors and the CLI
 # ---------------------------------------------------------------------------------
@@ -249,6 +267,7 @@ def test_permeability_scales_with_the_cube_of_the_aperture():
     ({"test": "permeability", "permeability": {"pressure_in_MPa": 0.0}},
      "permeability.pressure_in_MPa"),
     ({"test": "shear"}, "test"),
+    ({"test": "bts", "fissures": {"clear_radius_mm": 5.0}}, "fissures.clear_radius_mm"),
 ])
 def test_bad_lab_test_input_names_the_field(fields, field):
     test = fields.pop("test")

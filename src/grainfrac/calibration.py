@@ -88,7 +88,7 @@ from pydantic import Field, field_validator, model_validator
 
 from grainfrac import materials
 from grainfrac.analysis import stats
-from grainfrac.assembly import GrainSpec
+from grainfrac.assembly import FissureSpec, GrainSpec
 from grainfrac.errors import GrainfracError
 from grainfrac.io.config import StrictModel, read_toml, source_path, validate
 from grainfrac.io.files import write_csv, write_json, write_text, write_toml
@@ -257,12 +257,13 @@ def scaled_recipe(recipe: materials.RockRecipe, factors: dict[str, float], *,
     return validate(materials.RockRecipe, data)
 
 
-def _lab_value(job: tuple[str, int, materials.RockRecipe, GrainSpec]) -> dict[str, Any]:
+def _lab_value(job: tuple[str, int, materials.RockRecipe, GrainSpec, FissureSpec]
+               ) -> dict[str, Any]:
     """One lab test (worker process): returns its summary."""
     from grainfrac.labtests.run import measure
 
-    test, seed, recipe, grains = job
-    config = LabTestConfig(test=test, seed=seed, rock=recipe, grains=grains)
+    test, seed, recipe, grains, fissures = job
+    config = LabTestConfig(test=test, seed=seed, rock=recipe, grains=grains, fissures=fissures)
     return measure(config, recipe=recipe)["summary"]
 
 
@@ -280,9 +281,11 @@ class LabBench:
     kernels); ``close()`` it, or use the bench as a context manager.
     """
 
-    def __init__(self, seeds: list[int], grains: GrainSpec, workers: int | None = None):
+    def __init__(self, seeds: list[int], grains: GrainSpec, workers: int | None = None,
+                 fissures: FissureSpec | None = None):
         self.seeds = list(seeds)
         self.grains = grains
+        self.fissures = fissures or FissureSpec()
         self.workers = workers or os.cpu_count() or 1
         self._pool: ProcessPoolExecutor | None = None
 
@@ -303,7 +306,7 @@ class LabBench:
         """Mean of each reported quantity over the seeds (the bench's unless
         ``seeds`` is given), and every test's summary."""
         seeds = self.seeds if seeds is None else list(seeds)
-        jobs = [(t, s, recipe, self.grains) for t in tests for s in seeds]
+        jobs = [(t, s, recipe, self.grains, self.fissures) for t in tests for s in seeds]
         if self.workers > 1 and len(jobs) > 1:
             if self._pool is None:
                 self._pool = ProcessPoolExecutor(max_workers=self.workers,

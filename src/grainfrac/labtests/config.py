@@ -17,7 +17,7 @@ from typing import Literal
 from pydantic import Field, model_validator
 
 from grainfrac import materials
-from grainfrac.assembly import GrainSpec, SpecimenConfig
+from grainfrac.assembly import FissureSpec, GrainSpec, SpecimenConfig
 from grainfrac.geometry.specimens import (
     DiskSpec,
     RectangleSpec,
@@ -133,6 +133,8 @@ class LabTestConfig(StrictModel):
     rock: str | materials.RockRecipe = "strathbogie-granite"
     specimen: SpecimenShapeSpec | None = Field(None, description="default: paper Table 3")
     grains: GrainSpec = Field(default_factory=lambda: GrainSpec(**LAB_GRAINS))
+    fissures: FissureSpec = Field(default_factory=FissureSpec,
+                                  description="grain boundaries that start unbonded (none)")
     loading: LoadingSpec = Field(default_factory=LoadingSpec)
     permeability: PermeabilitySpec = Field(default_factory=PermeabilitySpec)
 
@@ -142,6 +144,13 @@ class LabTestConfig(StrictModel):
             raise ValueError(
                 f"specimen.shape: the {self.test} test needs a "
                 f"{_SHAPE_OF_TEST[self.test]} (got {self.specimen.shape!r})")
+        return self
+
+    @model_validator(mode="after")
+    def _no_clear_radius(self) -> LabTestConfig:
+        if self.fissures.clear_radius_mm > 0:
+            raise ValueError("fissures.clear_radius_mm: must be 0, a lab specimen has no "
+                             f"borehole (got {self.fissures.clear_radius_mm:g})")
         return self
 
     @model_validator(mode="after")
@@ -171,7 +180,8 @@ class LabTestConfig(StrictModel):
     def specimen_config(self) -> SpecimenConfig:
         """The specimen to build (Table 3 dimensions unless given)."""
         spec = self.specimen if self.specimen is not None else _DEFAULT_SPECIMEN[self.test]()
-        return SpecimenConfig(seed=self.seed, rock=self.rock, specimen=spec, grains=self.grains)
+        return SpecimenConfig(seed=self.seed, rock=self.rock, specimen=spec, grains=self.grains,
+                              fissures=self.fissures)
 
     def recipe(self, base_dir: Path | None = None) -> materials.RockRecipe:
         return self.specimen_config().recipe(base_dir)
