@@ -285,7 +285,7 @@ def test_held_out_seeds_must_differ_from_the_calibration_seeds():
 def test_a_test_without_peak_is_left_out_of_the_means(monkeypatch):
     """A UCS specimen whose split columns carry on has no strength, E or nu to give."""
     def lab_value(job):
-        test, seed, _, _ = job
+        test, seed = job[:2]
         if seed == 21:  # measured: Table 2, seed 21
             return {"test": test, "seed": seed, "ucs_MPa": 442.0, "poisson_ratio": 0.928,
                     "peak_found": False}
