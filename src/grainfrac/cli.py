@@ -350,16 +350,12 @@ def analyse(
 
     from grainfrac.analysis import analyse_run
 
-    radii = radius_mm or [None]
+    radii = radius_mm or []
     results: dict[str, dict] = {}
     try:
         for path in run_dirs:
-            by_radius = [analyse_run(path, radius_mm=r) for r in radii]
-            result = by_radius[0]
-            result["n_radial_fractures_by_radius_mm"] = {
-                "default" if r is None else f"{r:g}": a["n_radial_fractures"]
-                for r, a in zip(radii, by_radius, strict=True)}
-            results[str(path)] = result
+            results[str(path)] = analyse_run(path, radius_mm=radii[0] if radii else None,
+                                             more_radii_mm=radii[1:])
     except GrainfracError as exc:
         _fail(exc)
     if as_json:
@@ -369,7 +365,7 @@ def analyse(
     table.add_column("run", overflow="fold")
     table.add_column("breakdown MPa", justify="right")
     table.add_column("cracks T/S", justify="right")
-    for r in radii:
+    for r in radii or [None]:
         table.add_column("radial" if r is None else f"radial r={r:g}mm", justify="right")
     table.add_column("extent mm", justify="right")
     for name, a in results.items():

@@ -10,13 +10,19 @@ from __future__ import annotations
 
 import csv
 import tomllib
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from grainfrac.analysis.breakdown import breakdown_summary
-from grainfrac.analysis.fractures import CONNECT_FACTOR, energy_split, fracture_summary
+from grainfrac.analysis.fractures import (
+    CONNECT_FACTOR,
+    energy_split,
+    fracture_summary,
+    radial_fractures,
+)
 from grainfrac.errors import GrainfracError
 from grainfrac.units import MM
 
@@ -27,7 +33,8 @@ def read_csv_columns(path: Path) -> dict[str, list[str]]:
     return {k: [r[k] for r in rows] for k in (rows[0].keys() if rows else [])}
 
 
-def analyse_run(path: str | Path, *, radius_mm: float | None = None) -> dict[str, Any]:
+def analyse_run(path: str | Path, *, radius_mm: float | None = None,
+                more_radii_mm: Sequence[float] = ()) -> dict[str, Any]:
     """Breakdown, crack and fracture measures of a run directory.
 
     Parameters
@@ -36,6 +43,9 @@ def analyse_run(path: str | Path, *, radius_mm: float | None = None) -> dict[str
         Run directory (config.toml, history.csv, cracks.csv).
     radius_mm
         Circle for counting radial fractures (default 2 x borehole radius).
+    more_radii_mm
+        Further circles (mm). ``n_radial_fractures_by_radius_mm`` holds the count at
+        every circle, keyed like ``"8"`` (the default circle as ``"default"``).
     """
     path = Path(path)
     try:
@@ -46,10 +56,11 @@ def analyse_run(path: str | Path, *, radius_mm: float | None = None) -> dict[str
         raise GrainfracError(f"{path} is not a run directory: {exc.filename} missing") from None
     specimen = config.get("specimen", {})
     well_radius = 0.5 * specimen.get("borehole_diameter_mm", 0.0) * MM
-    if radius_mm is not None and not radius_mm * MM > well_radius:
-        raise GrainfracError(
-            f"radius_mm: the counting circle must lie outside the borehole, > "
-            f"{well_radius / MM:g} mm (got {radius_mm:g})")
+    for r in ([] if radius_mm is None else [radius_mm]) + list(more_radii_mm):
+        if not r * MM > well_radius:
+            raise GrainfracError(
+                f"radius_mm: the counting circle must lie outside the borehole, > "
+                f"{well_radius / MM:g} mm (got {r:g})")
     zone = config.get("grains", {}).get("zone_size_mm", 2.0) * MM
 
     out: dict[str, Any] = {"breakdown_pressure_MPa": None, "breakdown_time_s": None,
@@ -78,6 +89,12 @@ def analyse_run(path: str | Path, *, radius_mm: float | None = None) -> dict[str
         radius=None if radius_mm is None else radius_mm * MM,
     ))
     out.update(energy_split(mode, energy))
+    counts = {"default" if radius_mm is None else f"{radius_mm:g}": out["n_radial_fractures"]}
+    for r in more_radii_mm:
+        counts[f"{r:g}"] = radial_fractures(
+            x, y, (0.0, 0.0), well_radius=well_radius,
+            connect_distance=CONNECT_FACTOR * zone, radius=r * MM).count
+    out["n_radial_fractures_by_radius_mm"] = counts
     pairs, counts = np.unique(np.array(cracks.get("contact_type", []), dtype=str),
                               return_counts=True)
     total = counts.sum()
