@@ -351,7 +351,8 @@ class Run:
             arrays["fluid_pressure"] = fs.pressure
             arrays["fluid_volume"] = fs.volume
             arrays["fluid_content"] = fs.content
-            arrays["fluid_totals"] = np.array([fs.injected, fs.outflow])
+            arrays["fluid_totals"] = np.array([fs.injected, fs.outflow, fs.pump_work,
+                                               fs.wall_work])
             arrays["coupled_base_external"] = self.coupled.base_external
             h = self.coupled.history
             arrays["coupled_history"] = np.array([h.time, h.well_pressure, h.injected_volume,
@@ -406,7 +407,10 @@ class Run:
             fs.pressure = arrays["fluid_pressure"].copy()
             fs.volume = arrays["fluid_volume"].copy()
             fs.content = arrays["fluid_content"].copy()
-            fs.injected, fs.outflow = (float(x) for x in arrays["fluid_totals"])
+            # Checkpoints written before the energy totals hold two values.
+            totals = np.zeros(4)
+            totals[:len(arrays["fluid_totals"])] = arrays["fluid_totals"]
+            fs.injected, fs.outflow, fs.pump_work, fs.wall_work = (float(x) for x in totals)
             self.coupled.base_external = arrays["coupled_base_external"].copy()
             h = arrays["coupled_history"]
             hist = self.coupled.history
@@ -468,6 +472,8 @@ def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
     # The mechanics' own books (J): work in (boundary, expansion, fluid), stored,
     # dissipated (damping, friction, bonds released) and the residual.
     out["energy_balance_J"] = s.energy_balance()
+    if run.coupled is not None:
+        out["hydraulic_energy_J"] = run.coupled.hydraulic_energy()
     total, failed = contact_fractions(a.contact_view("pair"), a.contact_view("pair")[contact],
                                       a.pair_names)
     out["contact_fraction_total"] = total

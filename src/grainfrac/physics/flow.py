@@ -189,6 +189,10 @@ class FluidState:
     content: np.ndarray
     injected: float = 0.0
     outflow: float = 0.0
+    # Energy (J) the pump put into the well (the integral of p_well Q dt), and the
+    # work of the well pressure on the borehole wall (kept by the coupling).
+    pump_work: float = 0.0
+    wall_work: float = 0.0
 
     def stored(self, free: np.ndarray) -> float:
         """Fluid held by the free unknowns (m3 at reference density)."""
@@ -250,6 +254,8 @@ def implicit_step(network: FlowNetwork, state: FluidState, aperture: np.ndarray,
     state.content[free] += dt * net_in[free]
     state.outflow += float(dt * net_in[network.fixed].sum())
     state.injected += dt * injection_rate
+    if network.well_unknown >= 0:
+        state.pump_work += dt * injection_rate * p_new[network.well_unknown]
     state.pressure = p_new
     state.volume = v_new
 

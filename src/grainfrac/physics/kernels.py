@@ -312,6 +312,34 @@ def contact_strain_energy(sigma_n, tau, kn, ks, area) -> float:
 
 
 @njit(cache=True)
+def undrained_pore_pressure(u, contact_nodes, normal, contact_area, pore_contact, contact_pore,
+                            pore_contact_lower, aperture_limits, pore_held_void, pore_storage,
+                            pore_void, pressure_on_contact):
+    """Set the fluid pressure of the listed pores from their current void.
+
+    Pore ``k``'s void is ``V = sum A clip(a0 + u_n, lower, a_max)`` over its
+    sub-contacts ``pore_contact`` (``aperture_limits`` = (a0, a_max)); its
+    pressure is ``max(0, (pore_held_void[k] - V) / pore_storage[k])``: a
+    spring of compliance ``pore_storage`` about the void its fluid fills at
+    zero pressure. ``pore_void`` is workspace.
+    """
+    a0 = aperture_limits[0]
+    a_max = aperture_limits[1]
+    pore_void[:] = 0.0
+    for j in range(pore_contact.shape[0]):
+        c = pore_contact[j]
+        a = contact_nodes[c, 0]
+        b = contact_nodes[c, 1]
+        u_n = (u[b, 0] - u[a, 0]) * normal[c, 0] + (u[b, 1] - u[a, 1]) * normal[c, 1]
+        aperture = min(max(a0 + u_n, pore_contact_lower[j]), a_max)
+        pore_void[contact_pore[j]] += contact_area[c] * aperture
+    for j in range(pore_contact.shape[0]):
+        k = contact_pore[j]
+        pressure_on_contact[pore_contact[j]] = max(
+            (pore_held_void[k] - pore_void[k]) / pore_storage[k], 0.0)
+
+
+@njit(cache=True)
 def run_steps(
     n_steps, dt, alpha, u, v, force, stress, external, mass, fixed, prescribed_velocity,
     element_nodes, dndx, dndy, area, lam, mu, thickness,
@@ -322,6 +350,8 @@ def run_steps(
     platen_position, platen_velocity, platen_stiffness, platen_reaction, platen_node_force,
     failed_contact, failed_step, energies, allow_failure, velocity_limit,
     eigenstrain, eigenstrain_rate, initial_strain, opening_offset,
+    pore_contact, contact_pore, pore_contact_lower, aperture_limits, pore_held_void,
+    pore_storage, pore_void,
 ):
     """Advance ``n_steps`` explicit steps without returning to Python.
 
@@ -333,7 +363,9 @@ def run_steps(
     ``failed_contact`` / ``failed_step`` (step index within this call).
     Returns (number of cracks appended, steps done). The loop stops early,
     after the offending step, when any velocity exceeds ``velocity_limit`` or
-    is not finite: a blow-up is caught where it starts.
+    is not finite: a blow-up is caught where it starts. The pores listed by
+    ``pore_contact`` (often none) are undrained: their fluid pressure follows their
+    void at every step (:func:`undrained_pore_pressure`).
     """
     n_failed_total = 0
     failed_now = np.empty(contact_nodes.shape[0], dtype=np.int64)
@@ -349,6 +381,11 @@ def run_steps(
             e = expanding[i]
             energies[5] -= (area[e] * thickness * (stress[e, 0] + stress[e, 1])
                             * eigenstrain_rate[e] * dt)
+        if pore_contact.shape[0] > 0:
+            undrained_pore_pressure(u, contact_nodes, normal, contact_area, pore_contact,
+                                    contact_pore, pore_contact_lower, aperture_limits,
+                                    pore_held_void, pore_storage, pore_void,
+                                    pressure_on_contact)
         w_fric, n_failed, w_fluid, w_bond = contact_forces(
             u, v, dt, contact_nodes, normal, tangent, contact_area, kn, ks, tan_phi, cohesion,
             tensile_strength, opening_to_fail, slip_to_fail, bonded, status, sigma_n, tau,

@@ -45,6 +45,30 @@ class CrackRecord:
     energy: list[float]
 
 
+@dataclass
+class UndrainedPores:
+    """Pores whose fluid pressure follows their void during a mechanics cycle.
+
+    ``contact`` lists their sub-contacts, ``pore`` the pore of each (an index
+    into the per-pore arrays), ``lower`` each sub-contact's smallest aperture,
+    ``aperture_limits`` (a0, a_max); per pore, ``held_void`` (m3) and
+    ``storage`` (m3/Pa). See :func:`grainfrac.physics.kernels.undrained_pore_pressure`.
+    """
+
+    contact: np.ndarray
+    pore: np.ndarray
+    lower: np.ndarray
+    aperture_limits: np.ndarray
+    held_void: np.ndarray
+    storage: np.ndarray
+
+    @classmethod
+    def none(cls) -> UndrainedPores:
+        empty = np.zeros(0)
+        return cls(np.zeros(0, np.int64), np.zeros(0, np.int64), empty, np.ones(2), empty,
+                   empty)
+
+
 class MechanicsSolver:
     """Advance a :class:`MechanicalModel` under :class:`Loads`.
 
@@ -99,6 +123,8 @@ class MechanicsSolver:
         self.cracks = CrackRecord([], [], [], [])
         self._failed_contact = np.zeros(c, dtype=np.int64)
         self._failed_step = np.zeros(c, dtype=np.int64)
+        # Set by a hydro-mechanical coupling for the next cycle only.
+        self.undrained_pores = UndrainedPores.none()
 
     # -- stepping -----------------------------------------------------------------
     def _platen_arrays(self):
@@ -120,6 +146,7 @@ class MechanicsSolver:
         """Advance ``n_steps`` steps; record new cracks; check for blow-up."""
         m, ld = self.model, self.loads
         (pn, po, pa, ps, ppos, pvel, pstiff, preac, pnf) = self._platen_arrays()
+        r = self.undrained_pores
         n_new, done = kernels.run_steps(
             n_steps, m.dt, self.damping, self.u, self.v, self.force, self.stress, ld.external,
             m.mass, ld.fixed, ld.prescribed_velocity,
@@ -132,7 +159,8 @@ class MechanicsSolver:
             m.node_xy, pn, po, pa, ps, ppos, pvel, pstiff, preac, pnf,
             self._failed_contact, self._failed_step, self.energies, self.allow_failure,
             self.velocity_limit, self.eigenstrain, self.eigenstrain_rate, self.initial_strain,
-            self.opening_offset,
+            self.opening_offset, r.contact, r.pore, r.lower, r.aperture_limits, r.held_void,
+            r.storage, np.zeros(len(r.held_void)),
         )
         for platen, pos, reac in zip(ld.platens, ppos, preac, strict=True):
             platen.position = float(pos)
