@@ -26,7 +26,7 @@ from grainfrac.physics.coupled import HydroMechanicalSolver, pressure_jump_limit
 from grainfrac.physics.model import build_mechanical_model
 from grainfrac.physics.solver import MechanicsSolver, UndrainedPores
 from grainfrac.runner import demo_scenarios
-from grainfrac.simulation import run_scenario
+from grainfrac.simulation import hydraulic_energy_warnings, run_scenario
 from grainfrac.units import MPA
 
 
@@ -217,6 +217,13 @@ def test_default_hybrid_injects_through_breakdown(tmp_path):
     # The fluid gives the grains no more than the pump gave it (measured: 0.070 of 0.093 J).
     energy = summary["hydraulic_energy_J"]
     assert 0.0 < energy["on_grains"] < energy["pumped"]
+    assert summary["warnings"] == []
+
+
+def test_energy_made_by_the_coupling_is_reported():
+    assert hydraulic_energy_warnings({"pumped": 0.09, "on_grains": 0.07}) == []
+    (warning,) = hydraulic_energy_warnings({"pumped": 0.048, "on_grains": 23.1})
+    assert "23.1 J" in warning and "0.048 J" in warning and "time_step_ms" in warning
 
 
 def test_undrained_pore_pressure_follows_the_void():

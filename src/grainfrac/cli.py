@@ -218,6 +218,9 @@ def _print_run_summary(results: dict[str, dict]) -> None:
             cells = [_fmt(r.get(key), spec) for r in results.values()]
         table.add_row(label, *cells)
     console.print(table)
+    for name, r in results.items():
+        for warning in r.get("warnings", []):
+            console.print(f"[yellow]warning ({name}): {warning}[/yellow]")
 
 
 @app.command()

@@ -472,14 +472,25 @@ def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
     # The mechanics' own books (J): work in (boundary, expansion, fluid), stored,
     # dissipated (damping, friction, bonds released) and the residual.
     out["energy_balance_J"] = s.energy_balance()
+    out["warnings"] = []
     if run.coupled is not None:
         out["hydraulic_energy_J"] = run.coupled.hydraulic_energy()
+        out["warnings"] += hydraulic_energy_warnings(out["hydraulic_energy_J"])
     total, failed = contact_fractions(a.contact_view("pair"), a.contact_view("pair")[contact],
                                       a.pair_names)
     out["contact_fraction_total"] = total
     out["contact_fraction_failed"] = failed
     out["in_situ_unbalanced_force_ratio"] = run.state.in_situ_unbalanced_force_ratio
     return out
+
+
+def hydraulic_energy_warnings(energy: dict[str, float]) -> list[str]:
+    """A warning when the fluid did more work on the grains than the pump put in."""
+    if energy["on_grains"] <= energy["pumped"]:
+        return []
+    return [f"the fluid did {energy['on_grains']:.3g} J of work on the grains, more than the "
+            f"{energy['pumped']:.3g} J pumped into the well: the coupling made energy; "
+            "compare with a smaller inject time_step_ms"]
 
 
 def _plot_final_fields(run: Run, figures: Path) -> None:
