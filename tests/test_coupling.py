@@ -222,6 +222,8 @@ def test_default_hybrid_injects_through_breakdown(tmp_path):
 
 def test_energy_made_by_the_coupling_is_reported():
     assert hydraulic_energy_warnings({"pumped": 0.09, "on_grains": 0.07}) == []
+    assert hydraulic_energy_warnings({"pumped": 0.0536, "on_grains": 0.0537}) == []
+    assert len(hydraulic_energy_warnings({"pumped": 0.08, "on_grains": 0.18})) == 1
     (warning,) = hydraulic_energy_warnings({"pumped": 0.048, "on_grains": 23.1})
     assert "23.1 J" in warning and "0.048 J" in warning and "time_step_ms" in warning
 

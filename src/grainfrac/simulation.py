@@ -484,9 +484,17 @@ def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
     return out
 
 
+# Slack on the hydraulic energy books before a run is flagged. At 18 ml/min little
+# goes into viscous flow and fluid compression: 80 Table 2 runs (HS Cases 1-4,
+# hybrid study) gave on_grains / pumped 0.84-1.0015; the runs where the coupling
+# made energy gave 2.3-480.
+ENERGY_BOOKS_SLACK = 0.10
+
+
 def hydraulic_energy_warnings(energy: dict[str, float]) -> list[str]:
-    """A warning when the fluid did more work on the grains than the pump put in."""
-    if energy["on_grains"] <= energy["pumped"]:
+    """A warning when the fluid did more work on the grains than the pump put in
+    (beyond :data:`ENERGY_BOOKS_SLACK`)."""
+    if energy["on_grains"] <= (1.0 + ENERGY_BOOKS_SLACK) * energy["pumped"]:
         return []
     return [f"the fluid did {energy['on_grains']:.3g} J of work on the grains, more than the "
             f"{energy['pumped']:.3g} J pumped into the well: the coupling made energy; "
