@@ -30,17 +30,29 @@ from grainfrac.simulation import hydraulic_energy_warnings, run_scenario
 from grainfrac.units import MPA
 
 
-@pytest.fixture(scope="module")
-def coupled():
+def _case2_slab(freed_wall_grain: int | None = None) -> HydroMechanicalSolver:
+    """A 50 mm slab (seed 1) under stress Case 2 with a well; optionally the
+    ``freed_wall_grain``-th grain at the borehole wall has lost all its bonds."""
     slab = {"shape": "slab", "width_mm": 50.0, "height_mm": 50.0}
     config = validate(SpecimenConfig, {"seed": 1, "specimen": slab})
     assembly = build_assembly(config, config.recipe())
+    mesh = assembly.mesh
     mechanics = MechanicsSolver(build_mechanical_model(assembly))
     sx, sy, _ = STRESS_CASES["case2"]
-    initialise_in_situ(mechanics, assembly.mesh, sx * MPA, sy * MPA)
-    network = flow.build_flow_network(assembly.mesh, well=True,
+    initialise_in_situ(mechanics, mesh, sx * MPA, sy * MPA)
+    if freed_wall_grain is not None:
+        pairs = mesh.interface_grains[mesh.contact_interface]
+        at_wall = np.isin(mesh.contact_fluid_node, mesh.fluid_node_sets["borehole"])
+        grain = np.unique(pairs[at_wall].ravel())[freed_wall_grain]
+        mechanics.bonded[(pairs == grain).any(axis=1)] = False
+    network = flow.build_flow_network(mesh, well=True,
                                       permeable_sides=dict.fromkeys(("left", "right"), 0.0))
     return HydroMechanicalSolver(assembly, mechanics, network, flow.FluidProperties())
+
+
+@pytest.fixture(scope="module")
+def coupled():
+    return _case2_slab()
 
 
 def test_pressure_jump_limit():
@@ -259,21 +271,8 @@ def test_undrained_pore_pressure_follows_the_void():
 
 def _loose_grain_at_the_well(hold_pressure: bool) -> dict[str, float]:
     """Inject 1.5 ms at 90 ml/min with one grain at the borehole wall freed of all its
-    bonds (Case 2, 50 mm slab, seed 1); the hydraulic energy books."""
-    slab = {"shape": "slab", "width_mm": 50.0, "height_mm": 50.0}
-    config = validate(SpecimenConfig, {"seed": 1, "specimen": slab})
-    assembly = build_assembly(config, config.recipe())
-    mechanics = MechanicsSolver(build_mechanical_model(assembly))
-    sx, sy, _ = STRESS_CASES["case2"]
-    initialise_in_situ(mechanics, assembly.mesh, sx * MPA, sy * MPA)
-    mesh = assembly.mesh
-    pairs = mesh.interface_grains[mesh.contact_interface]
-    at_wall = np.isin(mesh.contact_fluid_node, mesh.fluid_node_sets["borehole"])
-    grain = np.unique(pairs[at_wall].ravel())[2]
-    mechanics.bonded[(pairs == grain).any(axis=1)] = False
-    network = flow.build_flow_network(mesh, well=True,
-                                      permeable_sides=dict.fromkeys(("left", "right"), 0.0))
-    solver = HydroMechanicalSolver(assembly, mechanics, network, flow.FluidProperties())
+    bonds; the hydraulic energy books."""
+    solver = _case2_slab(freed_wall_grain=2)
     if hold_pressure:
         solver._undrained_pores = UndrainedPores.none
     for _ in range(150):
