@@ -202,6 +202,9 @@ def test_reproduction_report_from_real_runs(tmp_path, monkeypatch):
     for run in plan.runs:
         assert execute_run(str(tmp_path / "out" / study.name / run.rel_dir),
                            run.scenario)["status"] == "done"
+    flagged = tmp_path / "out" / study.name / plan.runs[0].rel_dir / "summary.json"
+    summary = json.loads(flagged.read_text())
+    flagged.write_text(json.dumps({**summary, "warnings": ["the coupling made energy"]}))
     monkeypatch.setattr(DaskSession, "_connect", lambda self: pytest.fail("cluster started"))
     done = run_studies([study], tmp_path / "out", realisations=2, examples=tmp_path)
     outcome = done.outcomes[0]
@@ -218,8 +221,13 @@ def test_reproduction_report_from_real_runs(tmp_path, monkeypatch):
     md = (out / "report.md").read_text()
     assert "more cracks in Case 1" in md and f"**{cracks.verdict}**" in md
     assert "figures/tiny-confinement.png" in md and "no SCDA stage" in md
+    # The flagged run is listed (TINY's 0.1 ms coupling step makes energy in other runs
+    # of its own, which are listed too).
+    flag = f"{plan.runs[0].rel_dir}: the coupling made energy"
+    assert "Runs with warnings (" in md and flag in md
     page = (out / "report.html").read_text()
     assert page.count("data:image/png;base64,") == 1 and "undetermined" in page
+    assert flag in page
     assert (out / "figures" / "tiny-confinement.png").stat().st_size > 10_000
     rows = list(csv.DictReader(open(out / "claims.csv")))
     assert [(r["claim"], r["verdict"]) for r in rows] == [

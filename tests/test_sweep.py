@@ -281,6 +281,12 @@ def test_a_failing_run_is_recorded_and_the_sweep_goes_on(client, tmp_path, monke
     assert execute_run(str(tmp_path / run.rel_dir), run.scenario)["status"] == "done"
     assert collect(plan, tmp_path).runs[0]["status"] == "done"
     assert not (tmp_path / run.rel_dir / "failed.json").exists()
+    # A finished run's warnings (energy made by the coupling) reach the sweep.
+    summary_path = tmp_path / run.rel_dir / "summary.json"
+    summary = json.loads(summary_path.read_text())
+    assert collect(plan, tmp_path).warnings == {}
+    summary_path.write_text(json.dumps({**summary, "warnings": ["the coupling made energy"]}))
+    assert collect(plan, tmp_path).warnings == {run.rel_dir: ["the coupling made energy"]}
     # A task that raises on every try (here: a scenario that does not validate on the
     # worker) is retried, then reported as failed while the other runs complete.
     broken = PlannedRun("broken", 0, 0, {**run.scenario, "stages": []})

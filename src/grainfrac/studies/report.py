@@ -169,6 +169,13 @@ def _summary_rows(outcomes: Sequence[StudyOutcome]) -> list[list[str]]:
             for o in outcomes for v in o.verdicts]
 
 
+def _flagged(outcome: StudyOutcome) -> str:
+    """The runs whose summary carries warnings (their values are still counted)."""
+    w = outcome.result.warnings
+    return (f"Runs with warnings ({len(w)} of {len(outcome.result.runs)}; counted): "
+            + "; ".join(f"{k}: {' '.join(v)}" for k, v in w.items()))
+
+
 def write_markdown(outcomes: Sequence[StudyOutcome], path: Path, header: str) -> Path:
     """``report.md``: claims table, decision rules, then one section per study."""
     parts = [f"# Reproduction report\n\n{header}\n", "## Claims\n",
@@ -189,6 +196,8 @@ def write_markdown(outcomes: Sequence[StudyOutcome], path: Path, header: str) ->
         if o.result.failures:
             parts.append("\nFailed runs: " + "; ".join(
                 f"{k}: {e}" for k, e in o.result.failures.items()))
+        if o.result.warnings:
+            parts.append("\n" + _flagged(o))
         parts.append("")
     return write_text(path, "\n".join(parts) + "\n")
 
@@ -243,6 +252,8 @@ def write_html(outcomes: Sequence[StudyOutcome], path: Path, header: str) -> Pat
         if o.result.failures:
             body.append("<p class=note>Failed runs: " + html.escape("; ".join(
                 f"{k}: {e}" for k, e in o.result.failures.items())) + "</p>")
+        if o.result.warnings:
+            body.append(f"<p class=note>{html.escape(_flagged(o))}</p>")
     page = ("<!doctype html><html><head><meta charset=utf-8><title>grainfrac reproduction "
             f"report</title><style>{_CSS}</style></head><body>{''.join(body)}</body></html>")
     return write_text(path, page)

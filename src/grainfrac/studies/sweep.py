@@ -728,6 +728,8 @@ class SweepResult:
     failures: dict[str, str] = field(default_factory=dict)
     wall_time_s: float = 0.0
     files: list[Path] = field(default_factory=list)
+    # Finished runs whose summary carries warnings (run_dir -> warnings).
+    warnings: dict[str, list[str]] = field(default_factory=dict)
 
     def stat(self, point: str, quantity: str) -> dict[str, Any]:
         for row in self.stats:
@@ -860,6 +862,7 @@ def collect(plan: SweepPlan, out: str | Path) -> SweepResult:
     out = Path(out)
     runs: list[dict[str, Any]] = []
     found: list[str] = []
+    warnings: dict[str, list[str]] = {}
     for point in plan.points:
         for run in point.runs:
             run_dir = out / run.rel_dir
@@ -879,6 +882,8 @@ def collect(plan: SweepPlan, out: str | Path) -> SweepResult:
             row["wall_time_s"] = summary.get("wall_time_s") if summary else None
             row["run_dir"] = run.rel_dir
             if summary is not None:
+                if summary.get("warnings"):
+                    warnings[run.rel_dir] = list(summary["warnings"])
                 values = flatten_summary(summary)
                 for q in values:
                     if q not in found:
@@ -897,7 +902,7 @@ def collect(plan: SweepPlan, out: str | Path) -> SweepResult:
                 "ci95_low": s.ci_low, "ci95_high": s.ci_high,
                 "ci95_half_width": s.ci_half_width,
             })
-    return SweepResult(plan, out, runs, table, quantities)
+    return SweepResult(plan, out, runs, table, quantities, warnings=warnings)
 
 
 def _csv_value(value: Any) -> Any:
