@@ -89,12 +89,13 @@ def analyse_run(path: str | Path, *, radius_mm: float | None = None,
         radius=None if radius_mm is None else radius_mm * MM,
     ))
     out.update(energy_split(mode, energy))
-    counts = {"default" if radius_mm is None else f"{radius_mm:g}": out["n_radial_fractures"]}
+    by_radius = {"default" if radius_mm is None else f"{radius_mm:g}":
+                 out["n_radial_fractures"]}
     for r in more_radii_mm:
-        counts[f"{r:g}"] = radial_fractures(
+        by_radius[f"{r:g}"] = radial_fractures(
             x, y, (0.0, 0.0), well_radius=well_radius,
             connect_distance=CONNECT_FACTOR * zone, radius=r * MM).count
-    out["n_radial_fractures_by_radius_mm"] = counts
+    out["n_radial_fractures_by_radius_mm"] = by_radius
     pairs, counts = np.unique(np.array(cracks.get("contact_type", []), dtype=str),
                               return_counts=True)
     total = counts.sum()

@@ -328,8 +328,6 @@ class HydroMechanicalSolver:
             return UndrainedPores.none()
         pores, local = np.unique(pore[contact], return_inverse=True)
         f = self.fluid
-        broken = (f.residual_aperture if f.broken_residual_aperture is None
-                  else f.broken_residual_aperture)
         p = pressure[pores]
         fluid_storage = self.state.volume[pores] / f.bulk_modulus
         # The void the solve expects at its pressure p: content = void + V c p.
@@ -339,7 +337,7 @@ class HydroMechanicalSolver:
         storage = np.maximum(fluid_storage, springs)
         return UndrainedPores(
             contact=contact.astype(np.int64), pore=local.astype(np.int64),
-            lower=np.where(m.bonded[contact], f.residual_aperture, broken),
+            lower=flow.smallest_aperture(f, m.bonded[contact]),
             aperture_limits=np.array([f.initial_aperture, f.maximum_aperture]),
             held_void=expected_void + p * storage, storage=storage)
 

@@ -137,15 +137,19 @@ def build_flow_network(
 
 def hydraulic_aperture(opening: np.ndarray, fluid: FluidProperties,
                        bonded: np.ndarray | None = None) -> np.ndarray:
-    """``clamp(a0 + opening, a_res, a_max)`` per sub-contact (m).
-
-    Where ``bonded`` is False (cracks, fissures) the lower bound is the broken
-    residual aperture, if one is set.
-    """
-    lower = np.full(np.shape(opening), fluid.residual_aperture)
-    if bonded is not None and fluid.broken_residual_aperture is not None:
-        lower = np.where(bonded, lower, fluid.broken_residual_aperture)
+    """``clamp(a0 + opening, lower, a_max)`` per sub-contact (m), ``lower`` from
+    :func:`smallest_aperture`."""
+    lower = (np.full(np.shape(opening), fluid.residual_aperture) if bonded is None
+             else smallest_aperture(fluid, bonded))
     return np.clip(fluid.initial_aperture + opening, lower, fluid.maximum_aperture)
+
+
+def smallest_aperture(fluid: FluidProperties, bonded: np.ndarray) -> np.ndarray:
+    """Lower aperture bound per sub-contact (m): a_res, or where ``bonded`` is False
+    (cracks, fissures) the broken residual aperture if one is set."""
+    broken = (fluid.residual_aperture if fluid.broken_residual_aperture is None
+              else fluid.broken_residual_aperture)
+    return np.where(bonded, fluid.residual_aperture, broken)
 
 
 def pipe_conductance(network: FlowNetwork, aperture: np.ndarray,
