@@ -23,7 +23,7 @@ INJECTION_RATE = 90.0 * ML_PER_MIN
 COUPLED_DT = 1e-5  # s per fluid step
 COUPLED_STEPS = 600  # 6 ms of injection: build-up, breakdown near 4 ms, decline after
 BALANCE_STEP = 300  # mass balance checked after 3 ms as well as at the end
-PRESSURE_LAG_TOLERANCE = 0.02
+PRESSURE_LAG_TOLERANCE = 0.005
 BALANCE_TOLERANCE = 0.005
 STATE_TOLERANCE = 0.01
 
@@ -35,14 +35,14 @@ def slab():
     return build_assembly(config, config.recipe())
 
 
-def _stored_from_state(network, state, aperture, fluid, free) -> float:
+def _stored_from_state(network, state, aperture, fluid, free, well_volume) -> float:
     """Fluid held by the free unknowns from void volumes and pressures (equation of state).
 
     Independent of the ``content`` bookkeeping: saturated nodes hold
-    ``V (1 + c p)`` with ``V`` from the current apertures; unsaturated ones
-    (content below the void volume) hold their content.
+    ``V (1 + c p)`` with ``V`` from the current apertures and borehole wall;
+    unsaturated ones (content below the void volume) hold their content.
     """
-    v = flow.storage_volume(network, aperture)
+    v = flow.storage_volume(network, aperture, well_volume)
     c = np.full(network.n_unknowns, 1.0 / fluid.bulk_modulus)
     if network.well_unknown >= 0:
         c[network.well_unknown] = network.well_compressibility
@@ -68,7 +68,8 @@ def injection(slab):
     free = ~network.fixed
     t0 = mechanics.time
     stored0 = solver.state.stored(free)
-    eos0 = _stored_from_state(network, solver.state, solver.aperture(), fluid, free)
+    eos0 = _stored_from_state(network, solver.state, solver.aperture(), fluid, free,
+                              solver.well_void())
     rows = []
     for step in range(1, COUPLED_STEPS + 1):
         solver.advance(COUPLED_DT, INJECTION_RATE)
@@ -77,7 +78,7 @@ def injection(slab):
                "outflow": st.outflow}
         if step in (BALANCE_STEP, COUPLED_STEPS):
             row["stored_eos"] = _stored_from_state(network, st, solver.aperture(), fluid,
-                                                   free) - eos0
+                                                   free, solver.well_void()) - eos0
         rows.append(row)
     h = solver.history
     return {
@@ -121,7 +122,7 @@ def test_implicit_matches_explicit_reference(slab):
     fluid = flow.FluidProperties()
     network = flow.build_flow_network(slab.mesh, permeable_sides=dict.fromkeys(OUTER_SIDES, 0.0),
                                       well=True)
-    aperture = flow.hydraulic_aperture(np.zeros(slab.mesh.n_contacts), fluid)
+    aperture = flow.pore_aperture(np.zeros(slab.mesh.n_contacts), fluid)
     limit = flow.stable_explicit_dt(network, aperture, fluid)
     rate = 1.0 * ML_PER_MIN
     n_implicit = 50
@@ -157,7 +158,7 @@ def test_explicit_step_diverges_beyond_its_limit(slab):
     fluid = flow.FluidProperties()
     network = flow.build_flow_network(slab.mesh, permeable_sides=dict.fromkeys(OUTER_SIDES, 0.0),
                                       well=True)
-    aperture = flow.hydraulic_aperture(np.zeros(slab.mesh.n_contacts), fluid)
+    aperture = flow.pore_aperture(np.zeros(slab.mesh.n_contacts), fluid)
     limit = flow.stable_explicit_dt(network, aperture, fluid)
     state = flow.initial_state(network, aperture, fluid)
     for _ in range(300):
@@ -182,8 +183,8 @@ def test_mass_balance_coupled_injection(injection, step):
     # The second measure recomputes the stored fluid from the current apertures and
     # pressures, V (1 + c p). It is not conservation (the content books are) but
     # the lag of the staggered fixed-stress coupling: the mechanics has moved the
-    # apertures since the pressure solve. Measured 1.1e-2 at 6 ms with the
-    # conservative open-crack compliance that keeps the coupling stable.
+    # apertures since the pressure solve. Measured 1.1e-5 at 3 ms and 1.3e-3 at 6 ms
+    # (1.1e-2 at 6 ms while the borehole's void stayed that of the undeformed mesh).
     assert state < PRESSURE_LAG_TOLERANCE
 
 
@@ -248,12 +249,13 @@ def test_breakdown_of_intact_slab(injection, tmp_path):
 
 
 def test_broken_contacts_keep_their_residual_aperture():
-    """Cracks and fissures close only to the broken residual aperture (when one is set)."""
-    from grainfrac.physics.flow import FluidProperties, hydraulic_aperture
+    """Cracks and fissures close only to the broken residual aperture (when one is set);
+    the void is not capped at a_max (only the pipes are)."""
+    from grainfrac.physics.flow import FluidProperties, pore_aperture
 
     opening = np.array([-1e-6, -1e-6, 5e-6, 1e-3])
     bonded = np.array([True, False, False, False])
-    plain = hydraulic_aperture(opening, FluidProperties(), bonded)
-    np.testing.assert_allclose(plain, [2e-7, 2e-7, 5.2e-6, 3e-5])
-    rough = hydraulic_aperture(opening, FluidProperties(broken_residual_aperture=2e-6), bonded)
-    np.testing.assert_allclose(rough, [2e-7, 2e-6, 5.2e-6, 3e-5])
+    plain = pore_aperture(opening, FluidProperties(), bonded)
+    np.testing.assert_allclose(plain, [2e-7, 2e-7, 5.2e-6, 1.0002e-3])
+    rough = pore_aperture(opening, FluidProperties(broken_residual_aperture=2e-6), bonded)
+    np.testing.assert_allclose(rough, [2e-7, 2e-6, 5.2e-6, 1.0002e-3])

@@ -80,6 +80,7 @@ class RunState:
     injection_start_time: float | None = None
     stage_times: dict[str, list[float]] = field(default_factory=dict)
     in_situ_unbalanced_force_ratio: float | None = None
+    drill_out_unbalanced_force_ratio: float | None = None
     done: bool = False
 
 
@@ -277,12 +278,17 @@ class Run:
         if st.model_kind == "scda":
             self.solver = scda.drill_out(self.solver, self.rock_model)
             st.model_kind = "rock"
-        remaining = stage.relax_steps - st.stage_chunks * RELAX_CHUNK
-        if remaining > 0:
-            self.solver.cycle(min(RELAX_CHUNK, remaining))
+        steps = min(st.stage_chunks * RELAX_CHUNK, stage.max_steps)
+        if steps < stage.max_steps:
+            self.solver.cycle(min(RELAX_CHUNK, stage.max_steps - steps))
             st.stage_chunks += 1
-        done = stage.relax_steps - st.stage_chunks * RELAX_CHUNK <= 0
-        self._record(stage, min(1.0, st.stage_chunks * RELAX_CHUNK / max(stage.relax_steps, 1)))
+            steps = min(st.stage_chunks * RELAX_CHUNK, stage.max_steps)
+        ratio = self.solver.unbalanced_force_ratio()
+        done = steps >= stage.max_steps or (steps >= stage.relax_steps
+                                            and ratio < stage.unbalanced_ratio)
+        if done:
+            st.drill_out_unbalanced_force_ratio = ratio
+        self._record(stage, min(1.0, steps / max(stage.relax_steps, 1)))
         return done
 
     def _make_coupled(self) -> HydroMechanicalSolver:
@@ -481,6 +487,15 @@ def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
     out["contact_fraction_total"] = total
     out["contact_fraction_failed"] = failed
     out["in_situ_unbalanced_force_ratio"] = run.state.in_situ_unbalanced_force_ratio
+    drill_out = next((st for st in run.stages if isinstance(st, DrillOutStage)), None)
+    if drill_out is not None:
+        ratio = run.state.drill_out_unbalanced_force_ratio
+        out["drill_out_unbalanced_force_ratio"] = ratio
+        if ratio is not None and ratio >= drill_out.unbalanced_ratio:
+            out["warnings"].append(
+                f"drill_out: the rock had not settled after max_steps = {drill_out.max_steps} "
+                f"(unbalanced-force ratio {ratio:.3g}, target {drill_out.unbalanced_ratio:g}), "
+                "so what followed started from a moving rock; raise max_steps")
     return out
 
 

@@ -79,13 +79,21 @@ class HydroMechanicalSolver:
             normal_pressure_forces(assembly.mesh, "borehole", 1.0)
             if network.well_unknown >= 0 else None
         )
-        self.state = flow.initial_state(network, self.aperture(), fluid)
+        self.state = flow.initial_state(network, self.aperture(), fluid,
+                                        well_volume=self.well_void())
         # Plane-strain modulus of the softest grain: a crack opens against it.
         m = mechanics.model
         nu = m.lam / (2.0 * (m.lam + m.mu))
         youngs = m.mu * 2.0 * (1.0 + nu)
         self.crack_modulus = float(np.min(youngs / (1.0 - nu**2)))
         mesh = assembly.mesh
+        # Opening compliance of the borehole (m3/Pa): a pressurised hole of radius a in
+        # an elastic plane widens by p a / (2 G) (Lame), so its void grows by
+        # pi a^2 t / G per Pa; G is the grains' area-weighted shear modulus.
+        shear_modulus = float(np.average(m.mu, weights=m.element_area))
+        self.wall_compliance = (math.pi * mesh.grains.outline.borehole_radius**2
+                                * mesh.thickness / shear_modulus
+                                if network.well_unknown >= 0 else 0.0)
         self._wall_nodes = np.zeros(len(mesh.fluid_node_xy), dtype=bool)
         self._wall_nodes[mesh.fluid_node_sets.get("borehole", np.zeros(0, np.int64))] = True
         outline = mesh.grains.outline
@@ -94,15 +102,23 @@ class HydroMechanicalSolver:
         self._n_grains = int(self._contact_grains.max()) + 1
         self.history = CoupledHistory()
         self.rejected_steps = 0
-        # (step count, apertures, pore compliance) at the end of the last checked
-        # step: the next step starts from the same mechanical state.
-        self._pores: tuple[int, np.ndarray, np.ndarray] | None = None
+        # (step count, apertures, pore compliance, borehole void) at the end of the
+        # last checked step: the next step starts from the same mechanical state.
+        self._pores: tuple[int, np.ndarray, np.ndarray, float | None] | None = None
         self._apply_pressure()
 
     def aperture(self) -> np.ndarray:
         n = self.assembly.mesh.n_contacts
-        return flow.hydraulic_aperture(contact_opening(self.assembly, self.mechanics.u),
+        return flow.pore_aperture(contact_opening(self.assembly, self.mechanics.u),
                                        self.fluid, self.mechanics.bonded[:n])
+
+    def well_void(self) -> float | None:
+        """Void volume (m3) of the borehole with its wall where the mechanics has moved it
+        (None without a well). The fluid fills it, so a wall pushed out by the well
+        pressure takes fluid that the pump must supply."""
+        if self.network.well_unknown < 0:
+            return None
+        return flow.borehole_volume(self.assembly.mesh, self.mechanics.u)
 
     @property
     def well_pressure(self) -> float:
@@ -148,8 +164,11 @@ class HydroMechanicalSolver:
             length = self._open_crack_length(is_open)
             crack = CRACK_COMPLIANCE_FACTOR * m.model.contact_area * length / self.crack_modulus
             compliance = np.where(is_open, np.maximum(compliance, crack), compliance)
-        return np.bincount(self.network.contact_unknown, weights=compliance,
-                           minlength=self.network.n_unknowns)
+        total = np.bincount(self.network.contact_unknown, weights=compliance,
+                            minlength=self.network.n_unknowns)
+        if self.network.well_unknown >= 0:
+            total[self.network.well_unknown] += self.wall_compliance
+        return total
 
     def hydraulic_energy(self) -> dict[str, float]:
         """Energy (J) the pump put into the well, and the work the fluid did on the
@@ -256,9 +275,9 @@ class HydroMechanicalSolver:
         halving that next step could not shrink it, and the run blew up.
         """
         free = ~self.network.fixed
-        aperture, compliance = self._current_pores()
+        aperture, compliance, well_void = self._current_pores()
         undrained = flow.undrained_pressure(self.network, self.state, aperture, self.fluid,
-                                            compliance)
+                                            compliance, well_void)
         after = np.maximum(self.state.pressure, undrained)
         ratio = np.abs(after - before) / pressure_jump_limit(
             np.maximum(np.abs(before), self.well_pressure))
@@ -268,17 +287,17 @@ class HydroMechanicalSolver:
         content_ok = bool(np.all(self.state.content[free] >= -1e-6 * self.state.volume[free]))
         return worst, well_ratio, content_ok
 
-    def _current_pores(self) -> tuple[np.ndarray, np.ndarray]:
-        """Apertures and pore compliance of the current mechanical state."""
+    def _current_pores(self) -> tuple[np.ndarray, np.ndarray, float | None]:
+        """Apertures, pore compliance and borehole void of the current mechanical state."""
         count = self.mechanics.step_count
         if self._pores is None or self._pores[0] != count:
-            self._pores = (count, self.aperture(), self.pore_compliance())
-        return self._pores[1], self._pores[2]
+            self._pores = (count, self.aperture(), self.pore_compliance(), self.well_void())
+        return self._pores[1:]
 
     def _step(self, dt: float, injection_rate: float) -> None:
-        aperture, compliance = self._current_pores()
+        aperture, compliance, well_void = self._current_pores()
         flow.implicit_step(self.network, self.state, aperture, dt, self.fluid,
-                           injection_rate, compliance=compliance)
+                           injection_rate, compliance=compliance, well_volume=well_void)
         self._apply_pressure()
         m = self.mechanics
         m.undrained_pores = self._undrained_pores()
@@ -318,9 +337,9 @@ class HydroMechanicalSolver:
         pressure = self.state.pressure
         pore = self.network.contact_unknown
         m = self.mechanics
-        undrained = pressure > self.well_pressure
+        undrained = (pressure > self.well_pressure) | (pressure <= 0.0)
         undrained[pore[self._on_loose_grain(m.bonded[:len(pore)])]] = True
-        undrained &= ~self.network.fixed & (pressure > 0.0)
+        undrained &= ~self.network.fixed
         if self.network.well_unknown >= 0:
             undrained[self.network.well_unknown] = False
         contact = np.flatnonzero(undrained[pore])
@@ -338,7 +357,7 @@ class HydroMechanicalSolver:
         return UndrainedPores(
             contact=contact.astype(np.int64), pore=local.astype(np.int64),
             lower=flow.smallest_aperture(f, m.bonded[contact]),
-            aperture_limits=np.array([f.initial_aperture, f.maximum_aperture]),
+            initial_aperture=f.initial_aperture,
             held_void=expected_void + p * storage, storage=storage)
 
 

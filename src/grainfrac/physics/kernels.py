@@ -313,25 +313,23 @@ def contact_strain_energy(sigma_n, tau, kn, ks, area) -> float:
 
 @njit(cache=True)
 def undrained_pore_pressure(u, contact_nodes, normal, contact_area, pore_contact, contact_pore,
-                            pore_contact_lower, aperture_limits, pore_held_void, pore_storage,
+                            pore_contact_lower, initial_aperture, pore_held_void, pore_storage,
                             pore_void, pressure_on_contact):
     """Set the fluid pressure of the listed pores from their current void.
 
-    Pore ``k``'s void is ``V = sum A clip(a0 + u_n, lower, a_max)`` over its
-    sub-contacts ``pore_contact`` (``aperture_limits`` = (a0, a_max)); its
+    Pore ``k``'s void is ``V = sum A max(a0 + u_n, lower)`` over its
+    sub-contacts ``pore_contact`` (``initial_aperture`` = a0); its
     pressure is ``max(0, (pore_held_void[k] - V) / pore_storage[k])``: a
     spring of compliance ``pore_storage`` about the void its fluid fills at
     zero pressure. ``pore_void`` is workspace.
     """
-    a0 = aperture_limits[0]
-    a_max = aperture_limits[1]
     pore_void[:] = 0.0
     for j in range(pore_contact.shape[0]):
         c = pore_contact[j]
         a = contact_nodes[c, 0]
         b = contact_nodes[c, 1]
         u_n = (u[b, 0] - u[a, 0]) * normal[c, 0] + (u[b, 1] - u[a, 1]) * normal[c, 1]
-        aperture = min(max(a0 + u_n, pore_contact_lower[j]), a_max)
+        aperture = max(initial_aperture + u_n, pore_contact_lower[j])
         pore_void[contact_pore[j]] += contact_area[c] * aperture
     for j in range(pore_contact.shape[0]):
         k = contact_pore[j]
@@ -350,7 +348,7 @@ def run_steps(
     platen_position, platen_velocity, platen_stiffness, platen_reaction, platen_node_force,
     failed_contact, failed_step, energies, allow_failure, velocity_limit,
     eigenstrain, eigenstrain_rate, initial_strain, opening_offset,
-    pore_contact, contact_pore, pore_contact_lower, aperture_limits, pore_held_void,
+    pore_contact, contact_pore, pore_contact_lower, initial_aperture, pore_held_void,
     pore_storage, pore_void,
 ):
     """Advance ``n_steps`` explicit steps without returning to Python.
@@ -383,7 +381,7 @@ def run_steps(
                             * eigenstrain_rate[e] * dt)
         if pore_contact.shape[0] > 0:
             undrained_pore_pressure(u, contact_nodes, normal, contact_area, pore_contact,
-                                    contact_pore, pore_contact_lower, aperture_limits,
+                                    contact_pore, pore_contact_lower, initial_aperture,
                                     pore_held_void, pore_storage, pore_void,
                                     pressure_on_contact)
         w_fric, n_failed, w_fluid, w_bond = contact_forces(

@@ -51,21 +51,21 @@ class UndrainedPores:
 
     ``contact`` lists their sub-contacts, ``pore`` the pore of each (an index
     into the per-pore arrays), ``lower`` each sub-contact's smallest aperture,
-    ``aperture_limits`` (a0, a_max); per pore, ``held_void`` (m3) and
+    ``initial_aperture`` a0; per pore, ``held_void`` (m3) and
     ``storage`` (m3/Pa). See :func:`grainfrac.physics.kernels.undrained_pore_pressure`.
     """
 
     contact: np.ndarray
     pore: np.ndarray
     lower: np.ndarray
-    aperture_limits: np.ndarray
+    initial_aperture: float
     held_void: np.ndarray
     storage: np.ndarray
 
     @classmethod
     def none(cls) -> UndrainedPores:
         empty = np.zeros(0)
-        return cls(np.zeros(0, np.int64), np.zeros(0, np.int64), empty, np.ones(2), empty,
+        return cls(np.zeros(0, np.int64), np.zeros(0, np.int64), empty, 0.0, empty,
                    empty)
 
 
@@ -159,7 +159,7 @@ class MechanicsSolver:
             m.node_xy, pn, po, pa, ps, ppos, pvel, pstiff, preac, pnf,
             self._failed_contact, self._failed_step, self.energies, self.allow_failure,
             self.velocity_limit, self.eigenstrain, self.eigenstrain_rate, self.initial_strain,
-            self.opening_offset, r.contact, r.pore, r.lower, r.aperture_limits, r.held_void,
+            self.opening_offset, r.contact, r.pore, r.lower, r.initial_aperture, r.held_void,
             r.storage, np.zeros(len(r.held_void)),
         )
         for platen, pos, reac in zip(ld.platens, ppos, preac, strict=True):

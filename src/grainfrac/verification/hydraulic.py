@@ -192,7 +192,7 @@ def measure_permeability(mesh: GrainMesh, initial_aperture: float = TABLE4_APERT
                     residual_aperture=initial_aperture)
     network = flow.build_flow_network(
         mesh, permeable_sides={"top": pressure_in, "bottom": pressure_out}, well=False)
-    aperture = flow.hydraulic_aperture(np.zeros(mesh.n_contacts), fluid)
+    aperture = flow.pore_aperture(np.zeros(mesh.n_contacts), fluid)
     head = abs(pressure_in - pressure_out)
     state, steps = run_to_steady_state(network, aperture, fluid, head=head)
     q_in = side_inflow(network, state.pressure, aperture, fluid, "top")

@@ -441,6 +441,7 @@ class KGDState:
     opening_well: float
     net_pressure_well: float
     fracture_volume: float  # m3, opening x area over the plane
+    borehole_widening: float  # m3, growth of the borehole's void since injection began
     injected_volume: float  # m3
     max_off_plane_opening: float  # m, largest |opening| of a grain boundary off the plane
     n_broken_bonds: int  # bonds broken so far (the bonded grain boundaries are unbreakable)
@@ -480,7 +481,7 @@ def _tip(x: np.ndarray, w: np.ndarray, threshold: float) -> float:
 
 
 def _measure(run: KGDRun, assembly: GrainAssembly, plane_c: np.ndarray, opening0: np.ndarray,
-             hm: HydroMechanicalSolver, time: float) -> KGDState:
+             well_void0: float, hm: HydroMechanicalSolver, time: float) -> KGDState:
     config, mesh = run.config, assembly.mesh
     opening = contact_opening(assembly, hm.mechanics.u) - opening0
     xc = mesh.contact_xy[plane_c, 0]
@@ -504,6 +505,7 @@ def _measure(run: KGDRun, assembly: GrainAssembly, plane_c: np.ndarray, opening0
         opening_well=w_well,
         net_pressure_well=hm.well_pressure - config.confinement,
         fracture_volume=float(np.sum(np.clip(w, 0.0, None) * mesh.contact_area[plane_c])),
+        borehole_widening=hm.well_void() - well_void0,
         injected_volume=float(hm.state.injected),
         max_off_plane_opening=float(np.max(np.abs(opening[off]))) if off.any() else 0.0,
         n_broken_bonds=len(hm.mechanics.cracks.contact),
@@ -561,7 +563,9 @@ def run_kgd(config: KGDConfig | None = None, seed: int = 0,
     hm = HydroMechanicalSolver(assembly, mech, network, fluid)
     start = np.zeros(network.n_unknowns)
     start[network.well_unknown] = config.confinement
-    hm.state = flow.initial_state(network, hm.aperture(), fluid, pressure=start)
+    well_void0 = hm.well_void()
+    hm.state = flow.initial_state(network, hm.aperture(), fluid, pressure=start,
+                                  well_volume=well_void0)
 
     dt = model.dt
     ticks = _step_ticks(config, dt)
@@ -570,7 +574,8 @@ def run_kgd(config: KGDConfig | None = None, seed: int = 0,
     for k in range(1, len(ticks)):
         hm.advance(float(ticks[k] - ticks[k - 1]) * dt, rate)
         if int(ticks[k]) in compare or (record_every and k % record_every == 0):
-            run.states.append(_measure(run, assembly, plane_c, opening0, hm, ticks[k] * dt))
+            run.states.append(_measure(run, assembly, plane_c, opening0, well_void0, hm,
+                                       ticks[k] * dt))
     return run
 
 
