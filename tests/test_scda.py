@@ -65,6 +65,23 @@ def test_charging_energy_books_close(charged):
     assert books["expansion_work"] > 0 and closure < 0.02
 
 
+def test_drill_out_relaxes_until_the_rock_settles(charged, tmp_path):
+    """At least ``relax_steps``, then on to the unbalanced-force ratio; a run stopped by
+    ``max_steps`` says so."""
+    summary = charged[1]
+    print(f"\ndrill-out ended at unbalanced-force ratio "
+          f"{summary['drill_out_unbalanced_force_ratio']:.2e} (target 1e-5)")
+    assert summary["drill_out_unbalanced_force_ratio"] < 1e-5
+    assert not any("drill_out" in w for w in summary["warnings"])
+    data = {**CHARGE, "stages": CHARGE["stages"][:2] + [
+        {"kind": "drill_out", "relax_steps": 500, "max_steps": 500, "unbalanced_ratio": 1e-12}]}
+    sc = validate(Scenario, data)
+    cut_short = run_scenario(sc, sc.recipe(), tmp_path)
+    assert cut_short["drill_out_unbalanced_force_ratio"] >= 1e-12
+    assert any("drill_out: the rock had not settled after max_steps = 500" in w
+               for w in cut_short["warnings"])
+
+
 def test_resume_during_charging_gives_the_same_result(charged, tmp_path):
     sc = validate(Scenario, CHARGE)
     calls = {"n": 0}

@@ -283,6 +283,10 @@ BAD = {
     ),
     "zero viscosity": ({"fluid": {"viscosity_Pa_s": 0.0}, "stages": [EQ]},
                        "fluid.viscosity_Pa_s", ["> 0"]),
+    "drill-out step limit below its minimum": (
+        {"stages": [EQ, SCDA, {"kind": "drill_out", "relax_steps": 5000, "max_steps": 1000}]},
+        "stages.2.max_steps", [">= relax_steps (5000)"],
+    ),
     "no stages": ({"stages": []}, "stages", []),
     "stages missing": ({}, "stages", ["required"]),
     "clear radius too large": (
