@@ -279,6 +279,30 @@ def test_undrained_pore_pressure_follows_the_void():
     assert np.allclose(at(100.1e-6 - a0, wide), 5e6 - 2 * 2e-5 * 0.1e-6 / storage)
 
 
+def test_an_undrained_pore_starts_its_step_at_the_solved_pressure(coupled):
+    """Even with more fluid than void (a crack that collapsed during the last step, while
+    the solve expected it to open), the pore's spring starts at the solve's pressure."""
+    from grainfrac.physics.kernels import undrained_pore_pressure
+
+    m, net = coupled.mechanics, coupled.network
+    c = int(np.argmax(m.model.contact_area))
+    unknown = net.contact_unknown[c]
+    saved = copy.deepcopy(coupled.state)
+    try:
+        coupled.state.pressure[unknown] = 5.0 * MPA  # above the well's (0)
+        coupled.state.content[unknown] *= 1.1
+        r = coupled._undrained_pores()
+        assert c in r.contact
+        pressure = np.zeros(m.model.n_contacts)
+        undrained_pore_pressure(m.u, m.model.contact_nodes, m.model.contact_normal,
+                                m.model.contact_area, r.contact, r.pore, r.lower,
+                                r.initial_aperture, r.held_void, r.storage,
+                                np.zeros(len(r.held_void)), pressure)
+    finally:
+        coupled.state = saved
+    assert pressure[c] == pytest.approx(5.0 * MPA, rel=1e-6)
+
+
 def _loose_grain_at_the_well(hold_pressure: bool = False,
                              undeformed_borehole: bool = False) -> dict[str, float]:
     """Inject 1.5 ms at 90 ml/min with one grain at the borehole wall freed of all its
