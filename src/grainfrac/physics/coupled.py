@@ -110,7 +110,7 @@ class HydroMechanicalSolver:
     def aperture(self) -> np.ndarray:
         n = self.assembly.mesh.n_contacts
         return flow.pore_aperture(contact_opening(self.assembly, self.mechanics.u),
-                                       self.fluid, self.mechanics.bonded[:n])
+                                  self.fluid, self.mechanics.bonded[:n])
 
     def well_void(self) -> float | None:
         """Void volume (m3) of the borehole with its wall where the mechanics has moved it
