@@ -501,7 +501,7 @@ def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
 
 # Slack on the hydraulic energy books before a run is flagged. At low rates little
 # goes into viscous flow and fluid compression: 180 Table 2 study runs gave
-# on_grains / pumped 0.67-1.10 but one (laboratory HS, 5 ml/min: 1.31); the runs
+# on_grains / pumped 0.58-1.03 but one (laboratory HS, 5 ml/min: 1.16); the runs
 # where the coupling visibly made energy gave 2.3-480.
 ENERGY_BOOKS_SLACK = 0.10
 
