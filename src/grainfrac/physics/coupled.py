@@ -318,8 +318,8 @@ class HydroMechanicalSolver:
         moved the default seed-0 HS-only breakdown by 0.01 MPa).
 
         Elsewhere the solve's pressure is held for the whole step, which converges
-        well (default HS-only, seed 0: breakdown 9.94 / 9.87 MPa at 0.01 / 0.0025 ms
-        steps; hybrid 9.66 / 9.60 MPa). In these pores it pumps energy: a
+        well (default HS-only, seed 0: breakdown 9.91 / 9.87 MPa at 0.01 / 0.0025 ms
+        steps; hybrid 9.66 / 9.61 MPa). In these pores it pumps energy: a
         grain squeezes the pore during one step at a low pressure, the next solve
         puts a high one there, which blows the pore open during the next step at
         that pressure. Measured with the pressure held (and the borehole void of the
