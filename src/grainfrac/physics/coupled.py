@@ -22,7 +22,7 @@ from grainfrac.physics.solver import (
     ENERGY_KEYS,
     MechanicsSolver,
     NumericalBlowUp,
-    UndrainedPores,
+    PoreSprings,
 )
 
 # Open-crack compliance A L / E' times this factor (Sneddon's mean opening of a
@@ -300,35 +300,33 @@ class HydroMechanicalSolver:
                            injection_rate, compliance=compliance, well_volume=well_void)
         self._apply_pressure()
         m = self.mechanics
-        m.undrained_pores = self._undrained_pores()
+        m.pore_springs = self._pore_springs(dt, aperture)
         u_before = m.u.copy()
         try:
             m.cycle(max(1, math.ceil(dt / m.model.dt)))
         finally:
-            m.undrained_pores = UndrainedPores.none()
+            m.pore_springs = PoreSprings.none()
         if self.well_unit_forces is not None:
             self.state.wall_work += self.well_pressure * float(
                 np.sum(self.well_unit_forces * (m.u - u_before)))
 
-    def _undrained_pores(self) -> UndrainedPores:
-        """Pores whose pressure follows their void during this step's mechanics: those
-        next to a grain with no bonded boundary left, and those above the well's
-        pressure (fluid being squeezed, not fed from the well) or at zero pressure
-        (not reached by the well's fluid: a squeezed one pressurises at once; this
-        moved the default seed-0 HS-only breakdown by 0.01 MPa).
+    def _pore_springs(self, dt: float, aperture: np.ndarray) -> PoreSprings:
+        """How each free pore's pressure follows its void during this step's mechanics.
 
-        Elsewhere the solve's pressure is held for the whole step, which converges
-        well (default HS-only, seed 0: breakdown 9.91 / 9.87 MPa at 0.01 / 0.0025 ms
-        steps; hybrid 9.66 / 9.61 MPa). In these pores it pumps energy: a
-        grain squeezes the pore during one step at a low pressure, the next solve
-        puts a high one there, which blows the pore open during the next step at
-        that pressure. Measured with the pressure held (and the borehole void of the
-        undeformed mesh): hybrid, 15 % fissures, seed
-        0, the lab-calibrated 2D rock, a loose grain by the well cycled between 0
-        and 10-26 MPa and opened its gaps by 10-20 um a time, and the fluid did 23 J
-        of work on the grains against 0.048 J pumped into the well (local damping
-        took it); HS-only, Table 2, seed 8, a crack-tip pore cycled between 3.5 and
-        21 MPa, then reached 219 MPa (0.18 vs 0.08 J).
+        Undrained pores: those next to a grain with no bonded boundary left, and
+        those above the well's pressure (fluid being squeezed, not fed from the
+        well) or at zero pressure (not reached by the well's fluid: a squeezed one
+        pressurises at once; this moved the default seed-0 HS-only breakdown by
+        0.01 MPa). Holding the solve's pressure in them pumps energy: a grain
+        squeezes the pore during one step at a low pressure, the next solve puts a
+        high one there, which blows the pore open during the next step at that
+        pressure. Measured with the pressure held (and the borehole void of the
+        undeformed mesh): hybrid, 15 % fissures, seed 0, the lab-calibrated 2D
+        rock, a loose grain by the well cycled between 0 and 10-26 MPa and opened
+        its gaps by 10-20 um a time, and the fluid did 23 J of work on the grains
+        against 0.048 J pumped into the well (local damping took it); HS-only,
+        Table 2, seed 8, a crack-tip pore cycled between 3.5 and 21 MPa, then
+        reached 219 MPa (0.18 vs 0.08 J).
 
         Each such pore is a spring that starts the step at the solve's pressure and
         its current void, with the compliance of the fluid (V c) but no less than
@@ -340,30 +338,54 @@ class HydroMechanicalSolver:
         that had collapsed during the last step started at 1045 MPa against the
         solve's 4.06 and blew open (HS 18 ml/min, Case 1, Table 2, seed 2: 0.16 J
         of fluid work for 0.049 J pumped).
+
+        Drained pores (the others) hold the solve's pressure while their void stays
+        within what their fluid fills: the larger of the current void and the one
+        the solve's content fills at its pressure (which includes the opening its
+        compliance anticipated). Past that the pressure falls as a spring of the
+        fluid's compliance plus what the pore's pipes can bring in over the step
+        (V c + dt sum C), no stiffer than its contacts. Held without that limit, a
+        bond breaking during a step let the held pressure push its faces apart
+        into a void no fluid had reached: lab HS, 5 ml/min, seed 8, 0.34-0.59 mJ
+        of fluid work in single steps with the well pressure unchanged, and 1.16x
+        the pumped energy on the grains over the run (1.04x at a quarter of the
+        step). Convergence with the pressure held inside that limit was measured
+        on the default runs (HS-only, seed 0: breakdown 9.91 / 9.87 MPa at 0.01 /
+        0.0025 ms steps; hybrid 9.66 / 9.61 MPa).
         """
+        net = self.network
         pressure = self.state.pressure
-        pore = self.network.contact_unknown
+        pore = net.contact_unknown
         m = self.mechanics
+        listed = ~net.fixed
+        if net.well_unknown >= 0:
+            listed[net.well_unknown] = False
+        contact = np.flatnonzero(listed[pore])
+        if len(contact) == 0:
+            return PoreSprings.none()
         undrained = (pressure > self.well_pressure) | (pressure <= 0.0)
         undrained[pore[self._on_loose_grain(m.bonded[:len(pore)])]] = True
-        undrained &= ~self.network.fixed
-        if self.network.well_unknown >= 0:
-            undrained[self.network.well_unknown] = False
-        contact = np.flatnonzero(undrained[pore])
-        if len(contact) == 0:
-            return UndrainedPores.none()
         pores, local = np.unique(pore[contact], return_inverse=True)
         f = self.fluid
         p = pressure[pores]
-        fluid_storage = self.state.volume[pores] / f.bulk_modulus
+        void = self.state.volume[pores]
+        fluid_storage = void / f.bulk_modulus
         springs = np.bincount(local, weights=m.model.contact_area[contact]
                               / m.model.normal_stiffness[contact])
-        storage = np.maximum(fluid_storage, springs)
-        return UndrainedPores(
+        ends = net.pipe_unknowns
+        conductance = flow.pipe_conductance(net, aperture, f)
+        supply = dt * np.bincount(ends.ravel(), weights=np.repeat(conductance, 2),
+                                  minlength=net.n_unknowns)[pores]
+        held = undrained[pores]
+        storage = np.maximum(np.where(held, fluid_storage, fluid_storage + supply), springs)
+        filled = self.state.content[pores] - fluid_storage * p
+        start = np.where(held, void, np.maximum(void, filled))
+        return PoreSprings(
             contact=contact.astype(np.int64), pore=local.astype(np.int64),
             lower=flow.smallest_aperture(f, m.bonded[contact]),
             initial_aperture=f.initial_aperture,
-            held_void=self.state.volume[pores] + p * storage, storage=storage)
+            held_void=start + p * storage, storage=storage,
+            ceiling=np.where(held, np.inf, p))
 
 
 def pressure_jump_limit(pressure):

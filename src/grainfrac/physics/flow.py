@@ -136,12 +136,24 @@ def build_flow_network(
 
 
 def borehole_volume(mesh: GrainMesh, displacement: np.ndarray | None = None) -> float:
-    """Void volume (m3) of the borehole: the area of its wall polygon (shoelace over the
-    wall faces), with the wall nodes moved by ``displacement`` (n_nodes, 2) if given,
-    times the slab thickness."""
+    """Void volume (m3) of the borehole: the area of its wall polygon, with the wall
+    nodes moved by ``displacement`` (n_nodes, 2) if given, times the slab thickness.
+
+    Where a grain boundary meets the wall its two grains have nodes of their own
+    at the same place; the polygon closes across that crack mouth (whose own void
+    is the contact's aperture). Summed over the faces alone, the shoelace formula
+    lost r x the mouth's opening: a mouth opening by 2.3 um took 0.55 mJ of well
+    fluid work on the grains that the well's void did not show (lab HS, 5 ml/min,
+    seed 8; 1.16x the pumped energy on the grains over the run).
+    """
     faces = mesh.boundary_faces["borehole"].nodes
+    start, end = faces[:, 0], faces[:, 1]
+    # The face that starts where each face ends (its twin node across a mouth).
+    gap = mesh.node_xy[end][:, None, :] - mesh.node_xy[start][None, :, :]
+    following = start[np.argmin(np.einsum("ijk,ijk->ij", gap, gap), axis=1)]
     xy = mesh.node_xy if displacement is None else mesh.node_xy + displacement[:len(mesh.node_xy)]
-    a, b = xy[faces[:, 0]], xy[faces[:, 1]]
+    a = np.concatenate((xy[start], xy[end]))
+    b = np.concatenate((xy[end], xy[following]))
     return abs(0.5 * np.sum(a[:, 0] * b[:, 1] - b[:, 0] * a[:, 1])) * mesh.thickness
 
 

@@ -312,16 +312,16 @@ def contact_strain_energy(sigma_n, tau, kn, ks, area) -> float:
 
 
 @njit(cache=True)
-def undrained_pore_pressure(u, contact_nodes, normal, contact_area, pore_contact, contact_pore,
+def pore_spring_pressure(u, contact_nodes, normal, contact_area, pore_contact, contact_pore,
                             pore_contact_lower, initial_aperture, pore_held_void, pore_storage,
-                            pore_void, pressure_on_contact):
+                            pore_ceiling, pore_void, pressure_on_contact):
     """Set the fluid pressure of the listed pores from their current void.
 
     Pore ``k``'s void is ``V = sum A max(a0 + u_n, lower)`` over its
     sub-contacts ``pore_contact`` (``initial_aperture`` = a0); its
-    pressure is ``max(0, (pore_held_void[k] - V) / pore_storage[k])``: a
-    spring of compliance ``pore_storage`` about the void its fluid fills at
-    zero pressure. ``pore_void`` is workspace.
+    pressure is ``max(0, (pore_held_void[k] - V) / pore_storage[k])``, at most
+    ``pore_ceiling[k]``: a spring of compliance ``pore_storage`` about the void
+    its fluid fills at zero pressure. ``pore_void`` is workspace.
     """
     pore_void[:] = 0.0
     for j in range(pore_contact.shape[0]):
@@ -333,8 +333,8 @@ def undrained_pore_pressure(u, contact_nodes, normal, contact_area, pore_contact
         pore_void[contact_pore[j]] += contact_area[c] * aperture
     for j in range(pore_contact.shape[0]):
         k = contact_pore[j]
-        pressure_on_contact[pore_contact[j]] = max(
-            (pore_held_void[k] - pore_void[k]) / pore_storage[k], 0.0)
+        pressure_on_contact[pore_contact[j]] = min(max(
+            (pore_held_void[k] - pore_void[k]) / pore_storage[k], 0.0), pore_ceiling[k])
 
 
 @njit(cache=True)
@@ -349,7 +349,7 @@ def run_steps(
     failed_contact, failed_step, energies, allow_failure, velocity_limit,
     eigenstrain, eigenstrain_rate, initial_strain, opening_offset,
     pore_contact, contact_pore, pore_contact_lower, initial_aperture, pore_held_void,
-    pore_storage, pore_void,
+    pore_storage, pore_ceiling, pore_void,
 ):
     """Advance ``n_steps`` explicit steps without returning to Python.
 
@@ -362,8 +362,8 @@ def run_steps(
     Returns (number of cracks appended, steps done). The loop stops early,
     after the offending step, when any velocity exceeds ``velocity_limit`` or
     is not finite: a blow-up is caught where it starts. The pores listed by
-    ``pore_contact`` (often none) are undrained: their fluid pressure follows their
-    void at every step (:func:`undrained_pore_pressure`).
+    ``pore_contact`` (the free pores during injection, else none) have a fluid
+    pressure that follows their void at every step (:func:`pore_spring_pressure`).
     """
     n_failed_total = 0
     failed_now = np.empty(contact_nodes.shape[0], dtype=np.int64)
@@ -380,9 +380,9 @@ def run_steps(
             energies[5] -= (area[e] * thickness * (stress[e, 0] + stress[e, 1])
                             * eigenstrain_rate[e] * dt)
         if pore_contact.shape[0] > 0:
-            undrained_pore_pressure(u, contact_nodes, normal, contact_area, pore_contact,
+            pore_spring_pressure(u, contact_nodes, normal, contact_area, pore_contact,
                                     contact_pore, pore_contact_lower, initial_aperture,
-                                    pore_held_void, pore_storage, pore_void,
+                                    pore_held_void, pore_storage, pore_ceiling, pore_void,
                                     pressure_on_contact)
         w_fric, n_failed, w_fluid, w_bond = contact_forces(
             u, v, dt, contact_nodes, normal, tangent, contact_area, kn, ks, tan_phi, cohesion,

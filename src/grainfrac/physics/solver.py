@@ -46,13 +46,14 @@ class CrackRecord:
 
 
 @dataclass
-class UndrainedPores:
+class PoreSprings:
     """Pores whose fluid pressure follows their void during a mechanics cycle.
 
     ``contact`` lists their sub-contacts, ``pore`` the pore of each (an index
     into the per-pore arrays), ``lower`` each sub-contact's smallest aperture,
-    ``initial_aperture`` a0; per pore, ``held_void`` (m3) and
-    ``storage`` (m3/Pa). See :func:`grainfrac.physics.kernels.undrained_pore_pressure`.
+    ``initial_aperture`` a0; per pore, ``held_void`` (m3), ``storage`` (m3/Pa)
+    and ``ceiling`` (Pa), the most pressure it may reach. See
+    :func:`grainfrac.physics.kernels.pore_spring_pressure`.
     """
 
     contact: np.ndarray
@@ -61,12 +62,13 @@ class UndrainedPores:
     initial_aperture: float
     held_void: np.ndarray
     storage: np.ndarray
+    ceiling: np.ndarray
 
     @classmethod
-    def none(cls) -> UndrainedPores:
+    def none(cls) -> PoreSprings:
         empty = np.zeros(0)
         return cls(np.zeros(0, np.int64), np.zeros(0, np.int64), empty, 0.0, empty,
-                   empty)
+                   empty, empty)
 
 
 class MechanicsSolver:
@@ -124,7 +126,7 @@ class MechanicsSolver:
         self._failed_contact = np.zeros(c, dtype=np.int64)
         self._failed_step = np.zeros(c, dtype=np.int64)
         # Set by a hydro-mechanical coupling for the next cycle only.
-        self.undrained_pores = UndrainedPores.none()
+        self.pore_springs = PoreSprings.none()
 
     # -- stepping -----------------------------------------------------------------
     def _platen_arrays(self):
@@ -146,7 +148,7 @@ class MechanicsSolver:
         """Advance ``n_steps`` steps; record new cracks; check for blow-up."""
         m, ld = self.model, self.loads
         (pn, po, pa, ps, ppos, pvel, pstiff, preac, pnf) = self._platen_arrays()
-        r = self.undrained_pores
+        r = self.pore_springs
         n_new, done = kernels.run_steps(
             n_steps, m.dt, self.damping, self.u, self.v, self.force, self.stress, ld.external,
             m.mass, ld.fixed, ld.prescribed_velocity,
@@ -160,7 +162,7 @@ class MechanicsSolver:
             self._failed_contact, self._failed_step, self.energies, self.allow_failure,
             self.velocity_limit, self.eigenstrain, self.eigenstrain_rate, self.initial_strain,
             self.opening_offset, r.contact, r.pore, r.lower, r.initial_aperture, r.held_void,
-            r.storage, np.zeros(len(r.held_void)),
+            r.storage, r.ceiling, np.zeros(len(r.held_void)),
         )
         for platen, pos, reac in zip(ld.platens, ppos, preac, strict=True):
             platen.position = float(pos)
