@@ -377,16 +377,16 @@ class HydroMechanicalSolver:
         conductance = flow.pipe_conductance(net, aperture, f)
         supply = dt * np.bincount(ends.ravel(), weights=np.repeat(conductance, 2),
                                   minlength=net.n_unknowns)[pores]
-        held = undrained[pores]
-        storage = np.maximum(np.where(held, fluid_storage, fluid_storage + supply), springs)
+        sealed = undrained[pores]
+        storage = np.maximum(np.where(sealed, fluid_storage, fluid_storage + supply), springs)
         filled = self.state.content[pores] - fluid_storage * p
-        start = np.where(held, void, np.maximum(void, filled))
+        start = np.where(sealed, void, np.maximum(void, filled))
         return PoreSprings(
             contact=contact.astype(np.int64), pore=local.astype(np.int64),
             lower=flow.smallest_aperture(f, m.bonded[contact]),
             initial_aperture=f.initial_aperture,
             held_void=start + p * storage, storage=storage,
-            ceiling=np.where(held, np.inf, p))
+            ceiling=np.where(sealed, np.inf, p))
 
 
 def pressure_jump_limit(pressure):
