@@ -358,7 +358,8 @@ class Run:
             arrays["fluid_volume"] = fs.volume
             arrays["fluid_content"] = fs.content
             arrays["fluid_totals"] = np.array([fs.injected, fs.outflow, fs.pump_work,
-                                               fs.wall_work])
+                                               fs.wall_work, fs.viscous_work,
+                                               fs.outflow_work])
             arrays["coupled_base_external"] = self.coupled.base_external
             h = self.coupled.history
             arrays["coupled_history"] = np.array([h.time, h.well_pressure, h.injected_volume,
@@ -413,10 +414,11 @@ class Run:
             fs.pressure = arrays["fluid_pressure"].copy()
             fs.volume = arrays["fluid_volume"].copy()
             fs.content = arrays["fluid_content"].copy()
-            # Checkpoints written before the energy totals hold two values.
-            totals = np.zeros(4)
+            # Checkpoints written before the energy totals hold two or four values.
+            totals = np.zeros(6)
             totals[:len(arrays["fluid_totals"])] = arrays["fluid_totals"]
-            fs.injected, fs.outflow, fs.pump_work, fs.wall_work = (float(x) for x in totals)
+            (fs.injected, fs.outflow, fs.pump_work, fs.wall_work, fs.viscous_work,
+             fs.outflow_work) = (float(x) for x in totals)
             self.coupled.base_external = arrays["coupled_base_external"].copy()
             h = arrays["coupled_history"]
             hist = self.coupled.history
@@ -499,21 +501,26 @@ def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
     return out
 
 
-# Slack on the hydraulic energy books before a run is flagged. At low rates little
-# goes into viscous flow and fluid compression: 180 Table 2 study runs gave
-# on_grains / pumped 0.58-1.03 but one (laboratory HS, 5 ml/min: 1.16); the runs
-# where the coupling visibly made energy gave 2.3-480.
+# Energy the coupling may make, as a fraction of the pumped energy, before a run is
+# flagged. The books close to first order in the fluid step: residual / pumped at
+# 1 / 0.25 of the 0.01 ms step, default HS-only run (seed 0, 9 ms) -1.6 / -0.5 %,
+# lab HS 5 ml/min seed 8 +17 / -0.7 %; runs where the coupling visibly made energy
+# (before the fixes in physics/coupled.py) did 2.3-480x the pumped energy on the
+# grains alone.
 ENERGY_BOOKS_SLACK = 0.10
 
 
 def hydraulic_energy_warnings(energy: dict[str, float]) -> list[str]:
-    """A warning when the fluid did more work on the grains than the pump put in
-    (beyond :data:`ENERGY_BOOKS_SLACK`)."""
-    if energy["on_grains"] <= (1.0 + ENERGY_BOOKS_SLACK) * energy["pumped"]:
+    """A warning when the fluid's energy books show the coupling made energy: the
+    work on the grains, viscous dissipation, stored compression and outflow add up to
+    more than the pumped energy (beyond :data:`ENERGY_BOOKS_SLACK` of it)."""
+    made = -energy["residual"]
+    if made <= ENERGY_BOOKS_SLACK * energy["pumped"]:
         return []
-    return [f"the fluid did {energy['on_grains']:.3g} J of work on the grains, more than the "
-            f"{energy['pumped']:.3g} J pumped into the well: the coupling made energy; "
-            "compare with a smaller inject time_step_ms"]
+    return [f"the coupling made {made:.3g} J of fluid energy ({made / energy['pumped']:.0%} of "
+            f"the {energy['pumped']:.3g} J pumped into the well: {energy['on_grains']:.3g} J "
+            f"of work on the grains, {energy['viscous']:.3g} J viscous, "
+            f"{energy['stored']:.3g} J stored); compare with a smaller inject time_step_ms"]
 
 
 def _plot_final_fields(run: Run, figures: Path) -> None:

@@ -171,16 +171,32 @@ class HydroMechanicalSolver:
         return total
 
     def hydraulic_energy(self) -> dict[str, float]:
-        """Energy (J) the pump put into the well, and the work the fluid did on the
-        grains (pressure on grain-boundary faces and on the borehole wall).
+        """The fluid's energy books (J) since injection started.
 
-        The fluid starts at rest and unpressurised and dissipates energy in
-        viscous flow, so with a faithful coupling ``on_grains`` stays below
-        ``pumped``; more than that is energy made by the staggered scheme.
+        ``pumped``: the pump's work on the well; ``on_grains``: the fluid's work on
+        the grains (pressure on grain-boundary faces and on the borehole wall);
+        ``viscous``: dissipated by flow; ``stored``: the fluid's compression energy
+        now; ``outflow``: carried out through the permeable sides; ``residual``:
+        pumped minus the other four. A faithful coupling closes the books up to its
+        time discretisation; a negative residual is energy made by the staggered
+        scheme. Measured at 1 / 0.25 of the 0.01 ms fluid step: default HS-only run
+        (seed 0, to 9 ms) +2.3 / +0.5 % of the pumped energy; lab HS, 5 ml/min,
+        seed 8, -16 / +0.8 %.
         """
-        fluid_work = float(self.mechanics.energies[ENERGY_KEYS.index("fluid_work")])
-        return {"pumped": self.state.pump_work,
-                "on_grains": fluid_work + self.state.wall_work}
+        s = self.state
+        aperture, _, well_void = self._current_pores()
+        books = {
+            "pumped": float(s.pump_work),
+            "on_grains": float(self.mechanics.energies[ENERGY_KEYS.index("fluid_work")])
+            + s.wall_work,
+            "viscous": s.viscous_work,
+            "stored": flow.compression_energy(self.network, s, aperture, self.fluid,
+                                              well_void),
+            "outflow": s.outflow_work,
+        }
+        books["residual"] = books["pumped"] - sum(
+            books[k] for k in ("on_grains", "viscous", "stored", "outflow"))
+        return books
 
     def _on_loose_grain(self, bonded: np.ndarray) -> np.ndarray:
         """Sub-contacts on the boundary of a grain that has no bonded boundary left."""

@@ -224,6 +224,10 @@ class FluidState:
     # work of the well pressure on the borehole wall (kept by the coupling).
     pump_work: float = 0.0
     wall_work: float = 0.0
+    # Energy (J) dissipated by viscous flow in the pipes (dt sum C dp^2 per step),
+    # and carried out through the fixed-pressure nodes (their pressure x outflow).
+    viscous_work: float = 0.0
+    outflow_work: float = 0.0
 
     def stored(self, free: np.ndarray) -> float:
         """Fluid held by the free unknowns (m3 at reference density)."""
@@ -284,14 +288,35 @@ def implicit_step(network: FlowNetwork, state: FluidState, aperture: np.ndarray,
     matrix = (sp.diags(storage) + dt * lap).tocsr()
     free = ~network.fixed
     p_new = _solve_without_suction(matrix, rhs, network.fixed, network.fixed_pressure)
-    net_in = -(lap @ p_new) + source
+    flow_out = lap @ p_new
+    net_in = source - flow_out
     state.content[free] += dt * net_in[free]
     state.outflow += float(dt * net_in[network.fixed].sum())
+    state.outflow_work += float(dt * np.dot(p_new[network.fixed], net_in[network.fixed]))
+    state.viscous_work += float(dt * np.dot(p_new, flow_out))
     state.injected += dt * injection_rate
     if network.well_unknown >= 0:
         state.pump_work += dt * injection_rate * p_new[network.well_unknown]
     state.pressure = p_new
     state.volume = v_new
+
+
+def compression_energy(network: FlowNetwork, state: FluidState, aperture: np.ndarray,
+                       fluid: FluidProperties, well_volume: float | None = None) -> float:
+    """Elastic energy (J) of the fluid in the free unknowns, sum V c p^2 / 2, with p the
+    pressure at which each one's content fills its void at ``aperture`` (0 where it
+    does not: unsaturated).
+
+    With the pump's work, the viscous dissipation, the energy carried out and the
+    fluid's work on the grains it closes the fluid's energy books: along the
+    backward-Euler step, pump = viscous + outflow + sum p d(content), and the last
+    term is compression plus work on the pore walls.
+    """
+    v = storage_volume(network, aperture, well_volume)
+    c = _compressibility(network, fluid)
+    free = ~network.fixed
+    p = np.maximum((state.content[free] / v[free] - 1.0) / c[free], 0.0)
+    return float(np.sum(0.5 * v[free] * c[free] * p**2))
 
 
 def undrained_pressure(network: FlowNetwork, state: FluidState, aperture: np.ndarray,
