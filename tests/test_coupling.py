@@ -351,6 +351,9 @@ def test_a_drained_pore_holds_its_pressure_only_within_its_fluid(coupled):
     try:
         coupled.state.pressure[net.well_unknown] = 8.0 * MPA
         coupled.state.pressure[unknown] = 5.0 * MPA
+        # Fluid for its current void at 5 MPa.
+        coupled.state.content[unknown] = coupled.state.volume[unknown] * (1.0 + 5.0 * MPA
+                                                                          / 2.0e9)
         r = coupled._pore_springs(1e-5, coupled.aperture())
     finally:
         coupled.state = saved
@@ -373,6 +376,17 @@ def test_a_drained_pore_holds_its_pressure_only_within_its_fluid(coupled):
     assert pressure_at(0.0) == pytest.approx(5.0 * MPA)
     assert pressure_at(-1e-8) == pytest.approx(5.0 * MPA)  # squeezed: held, not raised
     assert pressure_at(1e-6) == 0.0  # a micron wider than its fluid
+    # With a tenth of its void unfilled it starts below the solve's pressure, and closes
+    # against it only once its fluid fills it again (no work from the grains for free).
+    saved = copy.deepcopy(coupled.state)
+    try:
+        coupled.state.pressure[net.well_unknown] = 8.0 * MPA
+        coupled.state.pressure[unknown] = 5.0 * MPA
+        coupled.state.content[unknown] = 0.9 * coupled.state.volume[unknown]
+        r = coupled._pore_springs(1e-5, coupled.aperture())
+    finally:
+        coupled.state = saved
+    assert pressure_at(0.0) < 5.0 * MPA
 
 
 def test_the_borehole_void_closes_across_open_crack_mouths(coupled):
