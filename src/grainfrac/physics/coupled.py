@@ -180,8 +180,8 @@ class HydroMechanicalSolver:
         pumped minus the other four. A faithful coupling closes the books up to its
         time discretisation; a negative residual is energy made by the staggered
         scheme. Measured at 1 / 0.25 of the 0.01 ms fluid step: default HS-only run
-        (seed 0, to 9 ms) +2.3 / +0.5 % of the pumped energy; lab HS, 5 ml/min,
-        seed 8, -16 / +0.8 %.
+        (seed 0, to 9 ms) -0.8 / +0.2 % of the pumped energy; lab HS, 5 ml/min,
+        seed 8, +11 / +1.1 %.
         """
         s = self.state
         books = {
