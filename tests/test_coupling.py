@@ -294,9 +294,9 @@ def test_pore_spring_pressure_follows_the_void():
         u = np.zeros((4, 2))
         u[1, 0] = u[3, 0] = opening
         pore_spring_pressure(u, contact_nodes, normal, area, np.array([0, 1]),
-                                np.array([0, 0]), np.full(2, a0), a0,
-                                np.array([held]), np.array([storage]), np.array([ceiling]),
-                                np.zeros(1), pressure)
+                             np.array([0, 0]), np.full(2, a0), a0,
+                             np.array([held]), np.array([storage]), np.array([ceiling]),
+                             np.zeros(1), pressure)
         return pressure.copy()
 
     assert np.allclose(at(1e-6 - a0), 5e6)
@@ -329,9 +329,9 @@ def test_an_undrained_pore_starts_its_step_at_the_solved_pressure(coupled):
         assert np.isinf(r.ceiling[r.pore[np.flatnonzero(r.contact == c)[0]]])
         pressure = np.zeros(m.model.n_contacts)
         pore_spring_pressure(m.u, m.model.contact_nodes, m.model.contact_normal,
-                                m.model.contact_area, r.contact, r.pore, r.lower,
-                                r.initial_aperture, r.held_void, r.storage, r.ceiling,
-                                np.zeros(len(r.held_void)), pressure)
+                             m.model.contact_area, r.contact, r.pore, r.lower,
+                             r.initial_aperture, r.held_void, r.storage, r.ceiling,
+                             np.zeros(len(r.held_void)), pressure)
     finally:
         coupled.state = saved
     assert pressure[c] == pytest.approx(5.0 * MPA, rel=1e-6)

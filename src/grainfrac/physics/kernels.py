@@ -313,8 +313,8 @@ def contact_strain_energy(sigma_n, tau, kn, ks, area) -> float:
 
 @njit(cache=True)
 def pore_spring_pressure(u, contact_nodes, normal, contact_area, pore_contact, contact_pore,
-                            pore_contact_lower, initial_aperture, pore_held_void, pore_storage,
-                            pore_ceiling, pore_void, pressure_on_contact):
+                         pore_contact_lower, initial_aperture, pore_held_void, pore_storage,
+                         pore_ceiling, pore_void, pressure_on_contact):
     """Set the fluid pressure of the listed pores from their current void.
 
     Pore ``k``'s void is ``V = sum A max(a0 + u_n, lower)`` over its
@@ -381,9 +381,9 @@ def run_steps(
                             * eigenstrain_rate[e] * dt)
         if pore_contact.shape[0] > 0:
             pore_spring_pressure(u, contact_nodes, normal, contact_area, pore_contact,
-                                    contact_pore, pore_contact_lower, initial_aperture,
-                                    pore_held_void, pore_storage, pore_ceiling, pore_void,
-                                    pressure_on_contact)
+                                 contact_pore, pore_contact_lower, initial_aperture,
+                                 pore_held_void, pore_storage, pore_ceiling, pore_void,
+                                 pressure_on_contact)
         w_fric, n_failed, w_fluid, w_bond = contact_forces(
             u, v, dt, contact_nodes, normal, tangent, contact_area, kn, ks, tan_phi, cohesion,
             tensile_strength, opening_to_fail, slip_to_fail, bonded, status, sigma_n, tau,
