@@ -82,6 +82,8 @@ class HydroMechanicalSolver:
         self.network = network
         self.fluid = fluid
         self.base_external = mechanics.loads.external.copy()
+        self._wall_loop = (flow.borehole_wall_loop(assembly.mesh)
+                           if network.well_unknown >= 0 else None)
         self.well_unit_forces = (
             normal_pressure_forces(assembly.mesh, "borehole", 1.0)
             if network.well_unknown >= 0 else None
@@ -125,7 +127,7 @@ class HydroMechanicalSolver:
         pressure takes fluid that the pump must supply."""
         if self.network.well_unknown < 0:
             return None
-        return flow.borehole_volume(self.assembly.mesh, self.mechanics.u)
+        return flow.borehole_volume(self.assembly.mesh, self.mechanics.u, self._wall_loop)
 
     @property
     def well_pressure(self) -> float:

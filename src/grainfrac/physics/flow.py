@@ -135,9 +135,23 @@ def build_flow_network(
     )
 
 
-def borehole_volume(mesh: GrainMesh, displacement: np.ndarray | None = None) -> float:
+def borehole_wall_loop(mesh: GrainMesh) -> np.ndarray:
+    """The borehole wall as node pairs (k, 3): each face's start and end node and the
+    start node of the face that begins where it ends (its twin node across a crack
+    mouth, or the same node). Fixed by the mesh; :func:`borehole_volume` walks it."""
+    faces = mesh.boundary_faces["borehole"].nodes
+    start, end = faces[:, 0], faces[:, 1]
+    gap = mesh.node_xy[end][:, None, :] - mesh.node_xy[start][None, :, :]
+    following = start[np.argmin(np.einsum("ijk,ijk->ij", gap, gap), axis=1)]
+    return np.column_stack((start, end, following))
+
+
+def borehole_volume(mesh: GrainMesh, displacement: np.ndarray | None = None,
+                    wall_loop: np.ndarray | None = None) -> float:
     """Void volume (m3) of the borehole: the area of its wall polygon, with the wall
     nodes moved by ``displacement`` (n_nodes, 2) if given, times the slab thickness.
+    ``wall_loop`` is :func:`borehole_wall_loop` (computed here if not given; callers
+    that ask at every step pass it).
 
     Where a grain boundary meets the wall its two grains have nodes of their own
     at the same place; the polygon closes across that crack mouth (whose own void
@@ -146,11 +160,8 @@ def borehole_volume(mesh: GrainMesh, displacement: np.ndarray | None = None) -> 
     fluid work on the grains that the well's void did not show (lab HS, 5 ml/min,
     seed 8; 1.16x the pumped energy on the grains over the run).
     """
-    faces = mesh.boundary_faces["borehole"].nodes
-    start, end = faces[:, 0], faces[:, 1]
-    # The face that starts where each face ends (its twin node across a mouth).
-    gap = mesh.node_xy[end][:, None, :] - mesh.node_xy[start][None, :, :]
-    following = start[np.argmin(np.einsum("ijk,ijk->ij", gap, gap), axis=1)]
+    loop = borehole_wall_loop(mesh) if wall_loop is None else wall_loop
+    start, end, following = loop[:, 0], loop[:, 1], loop[:, 2]
     xy = mesh.node_xy if displacement is None else mesh.node_xy + displacement[:len(mesh.node_xy)]
     a = np.concatenate((xy[start], xy[end]))
     b = np.concatenate((xy[end], xy[following]))
