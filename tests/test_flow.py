@@ -260,3 +260,27 @@ def test_broken_contacts_keep_their_residual_aperture():
     np.testing.assert_allclose(plain, [2e-7, 2e-7, 5.2e-6, 1.0002e-3])
     rough = pore_aperture(opening, FluidProperties(broken_residual_aperture=2e-6), bonded)
     np.testing.assert_allclose(rough, [2e-7, 2e-6, 5.2e-6, 1.0002e-3])
+
+
+def test_a_dry_node_is_let_go_when_its_neighbours_fill_it():
+    """No suction is a complementarity problem: p >= 0 everywhere, balance where
+    p > 0, and where p = 0 no more fluid than void (rhs - A p <= 0). A wide
+    unsaturated pore (A) pulls its over-full neighbour (B) below zero in the
+    unconstrained solve; once A is held dry, B must take positive pressure from its
+    own surplus and from the pressurised node (C, fixed at 1000 Pa). Storage 1 m3/Pa
+    per node, dt C = 100 m3/Pa between A and B, 1 between B and C."""
+    import scipy.sparse as sp
+
+    from grainfrac.physics.flow import _solve_without_suction
+
+    matrix = sp.csr_matrix(np.array([[101.0, -100.0, 0.0],
+                                     [-100.0, 102.0, -1.0],
+                                     [0.0, -1.0, 1.0]]))
+    rhs = np.array([-1e5, 500.0, 0.0])
+    fixed = np.array([False, False, True])
+    p = _solve_without_suction(matrix, rhs, fixed, np.array([0.0, 0.0, 1000.0]))
+    residual = (rhs - matrix @ p)[~fixed]
+    print(f"\npressures {p}, surplus of fluid over void {residual}")
+    assert p[0] == 0.0 and residual[0] < 0.0  # A stays unsaturated
+    assert p[1] == pytest.approx(1500.0 / 102.0)  # B balanced: 102 pB = 500 + 1000
+    assert residual[1] == pytest.approx(0.0, abs=1e-9)

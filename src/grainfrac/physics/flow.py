@@ -347,27 +347,37 @@ def undrained_pressure(network: FlowNetwork, state: FluidState, aperture: np.nda
 
 def _solve_without_suction(matrix: sp.csr_matrix, rhs: np.ndarray, fixed: np.ndarray,
                            fixed_pressure: np.ndarray, max_rounds: int = 50) -> np.ndarray:
-    """Solve ``matrix p = rhs`` with ``p >= 0`` on the free unknowns (active set).
+    """Solve ``matrix p = rhs`` with ``p >= 0`` on the free unknowns (primal-dual
+    active set for this complementarity problem).
 
-    Fluid cannot pull (no suction): where the unconstrained solution is negative
-    (a pore opening faster than fluid can reach it) the node is unsaturated and
-    held at p = 0, and the system is solved again, so the flows towards it are
-    driven by its neighbours' pressures only.
+    Fluid cannot pull (no suction): a node whose pressure would be negative (a pore
+    opening faster than fluid can reach it) is unsaturated and held at p = 0, so
+    the flows towards it are driven by its neighbours' pressures only. A node held
+    dry is let go again when, with its neighbours' new pressures, it would hold
+    more fluid than its void (``rhs - matrix p > 0`` there, by more than 1 Pa of
+    its own storage). Without that release a dry node stayed at zero while its
+    neighbours filled it: 30 % more fluid than void at 0 MPa, let go later as
+    47 MPa and 1.1 mJ of viscous flow in one step for 0.075 mJ pumped
+    (lab-calibrated rock, hybrid, 15 % fissures, seed 0). The matrix (storage
+    plus a graph Laplacian) is an M-matrix, for which these rounds settle.
     """
-    pinned = fixed.copy()
     p = np.where(fixed, fixed_pressure, 0.0)
+    dry = np.zeros_like(fixed)
+    diagonal = matrix.diagonal()
     for _ in range(max_rounds):
-        free = ~pinned
-        if not free.any():
-            break
-        a_ff = matrix[free][:, free].tocsc()
-        b = rhs[free] - matrix[free][:, pinned] @ p[pinned]
-        p[free] = spsolve(a_ff, b)
+        free = ~fixed & ~dry
+        if free.any():
+            held = ~free
+            a_ff = matrix[free][:, free].tocsc()
+            p[free] = spsolve(a_ff, rhs[free] - matrix[free][:, held] @ p[held])
         negative = free & (p < 0.0)
-        if not negative.any():
+        surplus = np.zeros_like(p)
+        surplus[dry] = rhs[dry] - matrix[dry] @ p
+        wet = dry & (surplus > diagonal)
+        if not negative.any() and not wet.any():
             break
         p[negative] = 0.0
-        pinned |= negative
+        dry = (dry | negative) & ~wet
     return np.maximum(p, np.where(fixed, -np.inf, 0.0))
 
 
