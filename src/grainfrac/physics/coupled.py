@@ -189,7 +189,7 @@ class HydroMechanicalSolver:
         pumped minus the other four. A faithful coupling closes the books up to its
         time discretisation; a negative residual is energy made by the staggered
         scheme. Measured at the 0.01 ms fluid step: default HS-only run (seed 0,
-        to 9 ms) -1.1 % of the pumped energy (+0.2 % at a quarter of the step, with
+        to 9 ms) -1.2 % of the pumped energy (+0.2 % at a quarter of the step, with
         the drained-pore spring as stiff as the contacts); lab HS, 5 ml/min, seed 8,
         -5.0 %; 90 Table 2 study runs -4.9 to +0.5 %.
         """
@@ -381,7 +381,7 @@ class HydroMechanicalSolver:
         seed 8 -5.0 % (work on grains / pumped 0.65; 0.56 at a quarter step, 0.99
         with the pressure held); HS-only seed 4 -1.7 % (work on grains 0.066 J; 0.064
         at a quarter step); HS 18 ml/min, Case 2, seed 7 -1.4 %; default HS-only
-        seed 0 -1.1 %.
+        seed 0 -1.1 % (-1.2 % with the active-set pressure solve).
         """
         net = self.network
         pressure = self.state.pressure
