@@ -406,7 +406,7 @@ def test_hs_breakdown_pressure_highest_in_case4(hs_cases):
     "seed 0 has two hybrid peaks, 9.45 and 9.49 MPa, 1.4 ms apart and the breakdown is "
     "read at the second, from which the pressure falls 6.3 % in 1 ms against HS-only's "
     "5.1 % (from the first: 0.4 %). Seeds 1 and 2 hold (3.3 vs 4.4 %, 2.2 vs 6.7 %), and so "
-    "does the mean over 10 realisations (3.4 vs 8.2 %, README)"))
+    "does the mean over 10 realisations (3.5 vs 8.1 %, README)"))
 def test_hybrid_pressure_falls_less_after_breakdown(pair_seed0):
     """No abrupt drop: a smaller fall of the well pressure within 1 ms after breakdown."""
     hs, hy = pair_seed0
