@@ -381,7 +381,7 @@ class HydroMechanicalSolver:
         seed 8 -5.0 % (work on grains / pumped 0.65; 0.56 at a quarter step, 0.99
         with the pressure held); HS-only seed 4 -1.7 % (work on grains 0.066 J; 0.064
         at a quarter step); HS 18 ml/min, Case 2, seed 7 -1.4 %; default HS-only
-        seed 0 -1.1 % (-1.2 % with the active-set pressure solve).
+        seed 0 -1.2 %.
         """
         net = self.network
         pressure = self.state.pressure
