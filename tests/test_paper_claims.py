@@ -417,8 +417,9 @@ def test_hybrid_pressure_falls_less_after_breakdown(pair_seed0):
 
 def test_hybrid_pressure_falls_less_steeply(pair_seed0):
     """No abrupt drop: a smaller steepest fall between fluid steps (0.01 ms) during injection.
-    A noisy measure (one pair of samples): seed 0 gives hybrid 2.81 vs HS-only 5.68 MPa/ms,
-    and it holds for seeds 0-2. It was an xfail from 90a3eee (3.57 vs 3.25) until drained
+    A noisy measure (one pair of samples): seed 0 gives hybrid 3.73 vs HS-only 5.68 MPa/ms
+    (2.81 before the pressure solve let dry nodes go again, when it held for seeds 0-2,
+    which are not re-measured since). It was an xfail from 90a3eee (3.57 vs 3.25) until drained
     pores stopped holding their pressure past their fluid."""
     hs, hy = pair_seed0
     dh, dy = _drops(hs), _drops(hy)
