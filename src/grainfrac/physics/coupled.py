@@ -189,9 +189,8 @@ class HydroMechanicalSolver:
         pumped minus the other four. A faithful coupling closes the books up to its
         time discretisation; a negative residual is energy made by the staggered
         scheme. Measured at the 0.01 ms fluid step: default HS-only run (seed 0,
-        to 9 ms) -1.2 % of the pumped energy (+0.2 % at a quarter of the step, with
-        the drained-pore spring as stiff as the contacts); lab HS, 5 ml/min, seed 8,
-        -5.0 %; 180 Table 2 study runs -4.9 to +0.5 %.
+        to 9 ms) -1.2 % of the pumped energy; lab HS, 5 ml/min, seed 8, -4.9 %; 180
+        Table 2 study runs -4.9 to +0.5 %.
         """
         s = self.state
         books = {

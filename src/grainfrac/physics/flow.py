@@ -371,9 +371,8 @@ def _solve_without_suction(matrix: sp.csr_matrix, rhs: np.ndarray, fixed: np.nda
             a_ff = matrix[free][:, free].tocsc()
             p[free] = spsolve(a_ff, rhs[free] - matrix[free][:, held] @ p[held])
         negative = free & (p < 0.0)
-        surplus = np.zeros_like(p)
-        surplus[dry] = rhs[dry] - matrix[dry] @ p
-        wet = dry & (surplus > diagonal)
+        wet = np.zeros_like(dry)
+        wet[dry] = rhs[dry] - matrix[dry] @ p > diagonal[dry]
         if not negative.any() and not wet.any():
             break
         p[negative] = 0.0
