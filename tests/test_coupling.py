@@ -472,3 +472,39 @@ def test_a_sealed_well_stores_fluid_in_its_compressibility_and_its_wall():
     print(f"\nwell pressure {solver.well_pressure / MPA:.3f} MPa; expected "
           f"{expected / MPA:.3f}, without the wall {rate * n * dt / fluid_storage / MPA:.3f}")
     assert solver.well_pressure == pytest.approx(expected, rel=0.08)
+
+
+def test_the_shared_crack_mode_opens_a_crack_as_sneddon_under_a_uniform_rise(coupled):
+    """The pressure solve's crack compliance: a uniform rise dp over an open crack
+    opens its node i by a_i L dp / E' (the lumped Sneddon compliance of
+    ``pore_compliance``), while a rise at one node alone opens it by far less."""
+    m = coupled.mechanics
+    net = coupled.network
+    mesh = coupled.assembly.mesh
+    xy = mesh.fluid_node_xy[mesh.contact_fluid_node]
+    centre = np.mean(mesh.fluid_node_xy[mesh.fluid_node_sets["borehole"]], axis=0)
+    x, y = (xy - centre).T
+    strip = (np.abs(x) < 0.3 * y) & (y < 20e-3)  # a wedge of cracks along +y
+    saved = m.bonded.copy(), m.sigma_n.copy()
+    try:
+        m.bonded[strip] = False
+        m.sigma_n[strip] = 0.0
+        lumped = coupled.pore_compliance()
+        local, shared = coupled.crack_compliance()
+        is_open = coupled._open_contacts()
+    finally:
+        m.bonded[:], m.sigma_n[:] = saved
+    assert shared is not None and abs(shared - shared.T).max() <= 1e-12 * abs(shared).max()
+    spring = m.model.contact_area / m.model.normal_stiffness
+    closed = np.bincount(net.contact_unknown, weights=np.where(is_open, 0.0, spring),
+                         minlength=net.n_unknowns)
+    nodes = np.setdiff1d(np.unique(net.contact_unknown[is_open]), [net.well_unknown])
+    uniform = shared @ np.ones(net.n_unknowns)
+    print(f"\n{is_open.sum()} open sub-contacts at {len(nodes)} nodes; opening per Pa "
+          f"uniform {uniform[nodes].mean():.3e}, own node only "
+          f"{(local + shared.diagonal())[nodes].mean() - closed[nodes].mean():.3e} m3/Pa")
+    assert np.allclose(uniform[nodes] + closed[nodes], lumped[nodes], rtol=1e-9)
+    # A rise at one node alone: its own area's share of the mode plus one zone.
+    own = local[nodes] - closed[nodes] + shared.diagonal()[nodes]
+    assert np.all(own < uniform[nodes])
+    assert np.median(own / uniform[nodes]) < 0.5

@@ -21,7 +21,7 @@ from grainfrac.verification import hydraulic
 OUTER_SIDES = ("left", "right", "top", "bottom")
 INJECTION_RATE = 90.0 * ML_PER_MIN
 COUPLED_DT = 1e-5  # s per fluid step
-COUPLED_STEPS = 600  # 6 ms of injection: build-up, breakdown near 4 ms, decline after
+COUPLED_STEPS = 700  # 7 ms of injection: build-up, breakdown near 5 ms, decline after
 BALANCE_STEP = 300  # mass balance checked after 3 ms as well as at the end
 PRESSURE_LAG_TOLERANCE = 0.005
 BALANCE_TOLERANCE = 0.005

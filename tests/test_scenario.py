@@ -90,7 +90,7 @@ def test_examples_match_paper_designs():
         hs, _ = load_scenario(EXAMPLES / f"hs-{case}-18mlmin.toml")
         assert hs.stage_kinds == ("equilibrate", "inject")
         assert hs.stages[1].rate_ml_per_min == 18.0
-        assert 25.0 <= hs.stages[1].duration_ms <= 40.0
+        assert hs.stages[1].duration_ms == default_inject_duration_ms(18.0)
         assert hs.stress.case == case
     hs90, _ = load_scenario(EXAMPLES / "hs-only-case2-90mlmin.toml")
     hyb, _ = load_scenario(EXAMPLES / "hybrid-case2-90mlmin.toml")
@@ -161,7 +161,7 @@ def test_si_views():
     inject = scenario.stages[-1]
     assert isinstance(inject, InjectStage)
     assert inject.rate == pytest.approx(1.5e-6)
-    assert inject.planned_duration_s == pytest.approx(8e-3)
+    assert inject.planned_duration_s == pytest.approx(12e-3)
     limited = InjectStage(rate_ml_per_min=60.0, duration_ms=100.0, volume_ml=0.005)
     assert limited.planned_duration_s == pytest.approx(0.005e-6 / 1e-6)  # 5 ms by volume
     scda = scenario.stages[1]
@@ -177,11 +177,11 @@ def test_presets():
     assert hs.stage_kinds == ("equilibrate", "inject")
     assert hy.stage_kinds == ("equilibrate", "scda", "drill_out", "inject")
     assert hs.stages[-1].rate_ml_per_min == hy.stages[-1].rate_ml_per_min == 90.0
-    assert hs.stages[-1].duration_ms == hy.stages[-1].duration_ms == 8.0
-    assert default_inject_duration_ms(18.0) == pytest.approx(40.0)
-    assert hs_only(18.0, "case4").stages[-1].duration_ms == pytest.approx(40.0)
+    assert hs.stages[-1].duration_ms == hy.stages[-1].duration_ms == 12.0
+    assert default_inject_duration_ms(18.0) == pytest.approx(60.0)
+    assert hs_only(18.0, "case4").stages[-1].duration_ms == pytest.approx(60.0)
     assert hs_only(18.0, "case4").stress.resolved() == (1.0, 5.0)
-    assert hybrid(duration_ms=12.0, seed=3).stages[-1].duration_ms == 12.0
+    assert hybrid(duration_ms=10.0, seed=3).stages[-1].duration_ms == 10.0
     assert hybrid(seed=3).seed == 3 == hy.with_seed(3).seed
     with pytest.raises(ConfigError) as err:
         hs_only(-5.0)

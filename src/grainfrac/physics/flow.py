@@ -277,17 +277,20 @@ def _laplacian(network: FlowNetwork, cond: np.ndarray) -> sp.csr_matrix:
 def implicit_step(network: FlowNetwork, state: FluidState, aperture: np.ndarray, dt: float,
                   fluid: FluidProperties, injection_rate: float = 0.0,
                   compliance: np.ndarray | None = None,
-                  well_volume: float | None = None) -> None:
+                  well_volume: float | None = None,
+                  shared_compliance: sp.spmatrix | None = None) -> None:
     """Advance pressures by ``dt``: backward Euler on fluid content; update the balance.
 
     Solves, for the free unknowns,
-    ``(V c + beta) p+ - dt sum_j C (p_j+ - p_i+) = content - V + beta p + dt Q``
-    where ``beta`` (m3/Pa) is the opening compliance of the pores at fixed
-    total stress (fixed-stress split: it stands in for the mechanical response
-    to the pressure change that the staggered mechanics delivers next; with
-    ``beta = 0`` this is the plain conservative step). Content then changes by
-    exactly the net flow. ``well_volume`` is the borehole's current void (default:
-    undeformed).
+    ``(V c + beta + B) p+ - dt sum_j C (p_j+ - p_i+) = content - V + (beta + B) p + dt Q``
+    where ``beta`` (m3/Pa, ``compliance``) is the opening compliance of each pore
+    at fixed total stress under a pressure change of its own, and ``B``
+    (``shared_compliance``, sparse, symmetric) the opening of pore i under a
+    pressure change at pore j through a mode they share (fixed-stress split:
+    they stand in for the mechanical response to the pressure change that the
+    staggered mechanics delivers next; with both zero this is the plain
+    conservative step). Content then changes by exactly the net flow.
+    ``well_volume`` is the borehole's current void (default: undeformed).
     """
     c = _compressibility(network, fluid)
     v_new = storage_volume(network, aperture, well_volume)
@@ -297,6 +300,9 @@ def implicit_step(network: FlowNetwork, state: FluidState, aperture: np.ndarray,
     storage = v_new * c + beta
     rhs = state.content - v_new + beta * state.pressure + dt * source
     matrix = (sp.diags(storage) + dt * lap).tocsr()
+    if shared_compliance is not None:
+        matrix = (matrix + shared_compliance).tocsr()
+        rhs = rhs + shared_compliance @ state.pressure
     free = ~network.fixed
     p_new = _solve_without_suction(matrix, rhs, network.fixed, network.fixed_pressure)
     flow_out = lap @ p_new
