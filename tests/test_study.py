@@ -146,7 +146,7 @@ def test_every_paper_study_plans_before_any_compute(monkeypatch):
     rate = [r.scenario["stages"][1] for p in planned["injection-rate"].points
             for r in p.runs[:1]]
     assert [(s["rate_ml_per_min"], round(s["duration_ms"], 2)) for s in rate] == [
-        (18.0, 40.0), (42.0, 17.14), (66.0, 10.91)]
+        (18.0, 60.0), (42.0, 25.71), (66.0, 16.36)]
     hybrid = {p.id: p.runs[0].scenario for p in planned["hybrid"].points}
     assert [s["kind"] for s in hybrid["hybrid-f15"]["stages"]] == [
         "equilibrate", "scda", "drill_out", "inject"]

@@ -309,4 +309,4 @@ def test_example_sweeps_plan():
     rate = load_sweep(examples[0].parent / "hs-rate-case2.toml")
     assert [p.id for p in rate.points] == ["18mlmin", "42mlmin", "66mlmin"]
     assert [round(p.runs[0].scenario["stages"][1]["duration_ms"], 1) for p in rate.points] == [
-        40.0, 17.1, 10.9]
+        60.0, 25.7, 16.4]

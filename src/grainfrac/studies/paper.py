@@ -109,7 +109,7 @@ def paper_studies() -> list[Study]:
     hs = Study(
         "hs-confinement", "Hydraulic stimulation at 18 ml/min under the four stress cases",
         "Sect. 5.3, Fig. 12",
-        "examples/hs-case1..4-18mlmin.toml: constant-rate injection, 40 ms or until a "
+        "examples/hs-case1..4-18mlmin.toml: constant-rate injection, 60 ms or until a "
         "fracture reaches the boundary.",
         {"name": "hs-confinement", "base": "hs-case1-18mlmin.toml", "set": COMMON_SET,
          "points": _cases("hs-", "-18mlmin")},
@@ -176,7 +176,7 @@ def paper_studies() -> list[Study]:
         "injection-rate", "Injection rate: HS at 18, 42 and 66 ml/min, Case 2",
         "Sect. 5.6, Fig. 16",
         "examples/hs-case2-18mlmin.toml with stages.1.rate_ml_per_min 18, 42, 66 and the "
-        "duration scaled as 1/rate (40, 17.1, 10.9 ms: the same injected volume).",
+        "duration scaled as 1/rate (60, 25.7, 16.4 ms: the same injected volume).",
         {"name": "injection-rate", "base": "hs-case2-18mlmin.toml", "set": COMMON_SET,
          "combine": "zip",
          "parameters": [{"path": "stages.1.rate_ml_per_min", "values": list(RATES_ML_PER_MIN),
