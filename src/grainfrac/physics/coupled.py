@@ -246,10 +246,10 @@ class HydroMechanicalSolver:
         crack_length[group[inv]] = length[idx]
         kappa = CRACK_COMPLIANCE_FACTOR * crack_length / (self.crack_modulus * crack_area)
         # Every pair (i, j) of entries in the same crack.
-        first = np.concatenate(([0], np.cumsum(size)[:-1]))
-        row = np.repeat(np.arange(len(keys)), size[group])
-        col = first[group][row] + (np.arange(len(row))
-                                   - np.repeat(np.cumsum(size[group]) - size[group], size[group]))
+        first = np.cumsum(size) - size
+        pairs = size[group]
+        row = np.repeat(np.arange(len(keys)), pairs)
+        col = first[group[row]] + np.arange(len(row)) - np.repeat(np.cumsum(pairs) - pairs, pairs)
         shared = sp.coo_matrix((kappa[group[row]] * node_area[row] * node_area[col],
                                 (node[row], node[col])), shape=(n, n)).tocsr()
         return local, shared
