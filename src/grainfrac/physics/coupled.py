@@ -174,9 +174,9 @@ class HydroMechanicalSolver:
 
         This lumps the crack's uniform opening mode onto each node, as if every
         node were as soft to a pressure rise of its own as the whole crack is to
-        a uniform one. It is the undrained response of one pore (step control,
-        pore springs); the pressure solve uses :meth:`crack_compliance`, which
-        keeps the mode whole.
+        a uniform one. The step control uses it as the undrained response of one
+        pore; the pressure solve uses :meth:`crack_compliance`, which keeps the
+        mode whole.
 
         A grain with no bonded boundary left is not the flank of a crack: pressure
         moves it bodily against its contacts, so the sub-contacts around it keep
