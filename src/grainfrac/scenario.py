@@ -62,10 +62,10 @@ SPECIMEN_SIDES: dict[str, tuple[str, ...]] = {
 # Shapes the far-field stress of an ``equilibrate`` stage can act on (left/right/top/bottom).
 _STRESSABLE_SHAPES = ("slab", "rectangle")
 
-# Headline HS design: 90 ml/min on the default slab breaks down ~4 ms after injection
+# Headline HS design: 90 ml/min on the default slab breaks down ~5 ms after injection
 # starts (tests/test_flow.py, README figure). The hybrid's pressure does not fall at
 # once: seed 0 peaks at 9.37 MPa 4.7 ms in, holds within 5 % of it (multiple peaks,
-# paper Fig. 17d) until 9.2 ms, then falls gradually (7.77 MPa at 12 ms), so 12 ms
+# paper Fig. 17d) until 9.2 ms, then falls gradually (7.74 MPa at 12 ms), so 12 ms
 # covers build-up, breakdown and propagation of both. Pressurisation time scales
 # with 1 / rate.
 DEFAULT_RATE_ML_PER_MIN = 90.0

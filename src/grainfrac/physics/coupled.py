@@ -217,9 +217,9 @@ class HydroMechanicalSolver:
         grains squeeze books its surplus fluid as coming opening instead of
         pushing it along the crack. Measured on the lab-calibrated 2D rock: the
         hybrid run of seed 1 made 29 % of the pumped energy, and the fissured
-        hybrid run of seed 3 80 %; with the shared mode they close at +0.48 % and
-        +0.74 %. With only the contact spring as the local term, seed 3 ran away
-        (-328 %).
+        hybrid run of seed 3 80 %; with the shared mode they close at +0.54 % and
+        +0.69 % (12 ms of injection). With only the contact spring as the local
+        term, seed 3 ran away (-328 %).
         """
         m = self.mechanics
         area = m.model.contact_area
