@@ -55,6 +55,14 @@ PRESSURE_JUMP_FLOOR = 1.0e6
 UNRESOLVED_JUMP = 0.8
 
 
+class _OpenCracks(NamedTuple):
+    """HydroMechanicalSolver._open_cracks: per sub-contact."""
+
+    is_open: np.ndarray
+    length: np.ndarray
+    label: np.ndarray
+
+
 class _Pores(NamedTuple):
     """The pores of one mechanical state, as the fluid solve and the step check see them."""
 
@@ -156,7 +164,7 @@ class HydroMechanicalSolver:
             external += self.well_pressure * self.well_unit_forces
         self.mechanics.loads.external[:] = external
 
-    def pore_compliance(self) -> np.ndarray:
+    def pore_compliance(self, cracks: _OpenCracks | None = None) -> np.ndarray:
         """Opening compliance at fixed total stress per unknown (m3/Pa): sum of A dw/dp.
 
         A bonded sub-contact, or a broken one held shut by more effective
@@ -187,15 +195,14 @@ class HydroMechanicalSolver:
         lab-calibrated 2D rock).
         """
         m = self.mechanics
-        is_open = self._open_contacts()
+        is_open, length, _ = cracks or self._open_cracks()
         compliance = m.model.contact_area / m.model.normal_stiffness
-        if is_open.any():
-            length, _ = self._open_cracks(is_open)
-            crack = CRACK_COMPLIANCE_FACTOR * m.model.contact_area * length / self.crack_modulus
-            compliance = np.where(is_open, np.maximum(compliance, crack), compliance)
+        crack = CRACK_COMPLIANCE_FACTOR * m.model.contact_area * length / self.crack_modulus
+        compliance = np.where(is_open, np.maximum(compliance, crack), compliance)
         return self._per_unknown(compliance)
 
-    def crack_compliance(self) -> tuple[np.ndarray, sp.csr_matrix | None]:
+    def crack_compliance(self, cracks: _OpenCracks | None = None
+                         ) -> tuple[np.ndarray, sp.csr_matrix | None]:
         """Opening compliance of the pores for the pressure solve (m3/Pa).
 
         Returns
@@ -223,7 +230,7 @@ class HydroMechanicalSolver:
         """
         m = self.mechanics
         area = m.model.contact_area
-        is_open = self._open_contacts()
+        is_open, length, crack = cracks or self._open_cracks()
         zone = CRACK_LOCAL_ZONES * self.assembly.mesh.zone_size
         local = np.where(is_open, np.maximum(area / m.model.normal_stiffness,
                                              CRACK_COMPLIANCE_FACTOR * area * zone
@@ -232,7 +239,6 @@ class HydroMechanicalSolver:
         local = self._per_unknown(local)
         if not is_open.any():
             return local, None
-        length, crack = self._open_cracks(is_open)
         n = self.network.n_unknowns
         idx = np.flatnonzero(is_open)
         # Open area per (crack, node), grouped by crack.
@@ -261,12 +267,6 @@ class HydroMechanicalSolver:
         if self.network.well_unknown >= 0:
             total[self.network.well_unknown] += self.wall_compliance
         return total
-
-    def _open_contacts(self) -> np.ndarray:
-        """Sub-contacts that open against the grains under the next pressure rise."""
-        m = self.mechanics
-        is_open = ~m.bonded & (m.sigma_n < pressure_jump_limit(m.contact_pressure))
-        return is_open & ~self._on_loose_grain(m.bonded)
 
     def hydraulic_energy(self) -> dict[str, float]:
         """The fluid's energy books (J) since injection started.
@@ -302,11 +302,16 @@ class HydroMechanicalSolver:
         held[pairs[bonded, 1]] = True
         return ~held[pairs[:, 0]] | ~held[pairs[:, 1]]
 
-    def _open_cracks(self, is_open: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Length (m) of the open crack each sub-contact belongs to (0 where closed), and
-        each sub-contact's crack label (open sub-contacts joined by open pipes)."""
+    def _open_cracks(self) -> _OpenCracks:
+        """The sub-contacts that open against the grains under the next pressure rise
+        (broken, not held shut by more than a step's pressure change, not around a
+        loose grain), the length (m) of the open crack each belongs to (0 where
+        closed), and each one's crack label (open sub-contacts joined by open pipes)."""
         from scipy.sparse.csgraph import connected_components
 
+        m = self.mechanics
+        is_open = ~m.bonded & (m.sigma_n < pressure_jump_limit(m.contact_pressure))
+        is_open &= ~self._on_loose_grain(m.bonded)
         mesh = self.assembly.mesh
         n = len(mesh.fluid_node_xy)
         open_pipe = is_open[mesh.pipe_contacts[:, 0]] & is_open[mesh.pipe_contacts[:, 1]]
@@ -320,7 +325,8 @@ class HydroMechanicalSolver:
         crack_length = length + np.where(touches, self._well_diameter, 0.0)
         crack_length = np.maximum(crack_length, mesh.zone_size)
         contact_label = label[mesh.contact_fluid_node]
-        return np.where(is_open, crack_length[contact_label], 0.0), contact_label
+        return _OpenCracks(is_open, np.where(is_open, crack_length[contact_label], 0.0),
+                           contact_label)
 
     def advance(self, dt: float, injection_rate: float = 0.0) -> None:
         """One coupled step of ``dt`` seconds with ``injection_rate`` (m3/s) into the well.
@@ -404,8 +410,9 @@ class HydroMechanicalSolver:
         """Apertures, compliances and borehole void of the current mechanical state."""
         count = self.mechanics.step_count
         if self._pores is None or self._pores[0] != count:
-            local, shared = self.crack_compliance()
-            self._pores = (count, _Pores(self.aperture(), self.pore_compliance(), local,
+            cracks = self._open_cracks()
+            local, shared = self.crack_compliance(cracks)
+            self._pores = (count, _Pores(self.aperture(), self.pore_compliance(cracks), local,
                                          shared, self.well_void()))
         return self._pores[1]
 
