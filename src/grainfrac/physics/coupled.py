@@ -231,12 +231,10 @@ class HydroMechanicalSolver:
         m = self.mechanics
         area = m.model.contact_area
         is_open, length, crack = cracks or self._open_cracks()
+        spring = area / m.model.normal_stiffness
         zone = CRACK_LOCAL_ZONES * self.assembly.mesh.zone_size
-        local = np.where(is_open, np.maximum(area / m.model.normal_stiffness,
-                                             CRACK_COMPLIANCE_FACTOR * area * zone
-                                             / self.crack_modulus),
-                         area / m.model.normal_stiffness)
-        local = self._per_unknown(local)
+        zone_crack = CRACK_COMPLIANCE_FACTOR * area * zone / self.crack_modulus
+        local = self._per_unknown(np.where(is_open, np.maximum(spring, zone_crack), spring))
         if not is_open.any():
             return local, None
         n = self.network.n_unknowns
@@ -278,8 +276,8 @@ class HydroMechanicalSolver:
         pumped minus the other four. A faithful coupling closes the books up to its
         time discretisation; a negative residual is energy made by the staggered
         scheme. Measured at the 0.01 ms fluid step: default HS-only run (seed 0,
-        to 9 ms) -1.2 % of the pumped energy; lab HS, 5 ml/min, seed 8, -4.9 %; 180
-        Table 2 study runs -4.9 to +0.5 %.
+        12 ms) -0.84 % of the pumped energy; lab HS, 5 ml/min, seed 0, -8.6 % (-5.0 %
+        at a quarter of the step); 140 Table 2 study runs -8.6 to +0.3 %.
         """
         s = self.state
         books = {
