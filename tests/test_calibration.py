@@ -27,7 +27,8 @@ def test_scaled_recipe_scales_what_the_table_says():
                                    "shear_fracture_energy_J_per_m2": 100.0})
         for name, c in BASE.contacts.items()}})
     r = scaled_recipe(softening, {"stiffness": 2.0, "shear_ratio": 0.5, "strength": 0.25,
-                                  "friction": 2.0, "fracture_energy": 3.0},
+                                  "friction": 2.0, "fracture_energy": 3.0,
+                                  "shear_fracture_energy": 0.1},
                       initial_aperture_m=3e-7, name="x")
     q0, q = BASE.contacts["Q-Q"], r.contacts["Q-Q"]
     quartz0, quartz = BASE.minerals[2], r.minerals[2]
@@ -39,7 +40,7 @@ def test_scaled_recipe_scales_what_the_table_says():
     assert math.tan(math.radians(q.friction_angle_deg)) == pytest.approx(
         2 * math.tan(math.radians(q0.friction_angle_deg)))
     assert (q.tensile_fracture_energy_J_per_m2, q.shear_fracture_energy_J_per_m2) == (
-        pytest.approx(30.0), pytest.approx(300.0))
+        pytest.approx(30.0), pytest.approx(30.0))
     assert r.hydraulic.initial_aperture_m == 3e-7 and r.name == "x"
 
 
@@ -130,6 +131,32 @@ def test_factors_as_a_table_pair_factors_with_other_targets(monkeypatch):
         assert abs(result["errors"][key]) < 0.01
     assert result["factors"]["tensile_strength"] == 0.8  # not solved: stays at its start
     assert result["factors"]["shear_ratio"] == 1.0
+
+
+def _shear_energy_bench(self, recipe, tests):
+    """The power-law bench with a UCS that grows with G_II (brittle-shear contacts)."""
+    means, _ = _power_law_bench(self, recipe, tests)
+    g_shear = recipe.contacts["Q-Q"].shear_fracture_energy_J_per_m2
+    means["ucs_MPa"] *= (g_shear / 3.0) ** 0.3
+    return means, [means]
+
+
+def test_shear_fracture_energy_solves_the_ucs_apart_from_g_i(monkeypatch):
+    monkeypatch.setattr(LabBench, "measure", _shear_energy_bench)
+    config = validate(CalibrationConfig, {
+        "seeds": [0], "tolerance": 0.01, "max_evaluations": 30,
+        "shear_to_tensile_fracture_energy": 0.03,
+        "factors": {"stiffness": "youngs_modulus_GPa", "tensile_strength": "bts_MPa",
+                    "shear_fracture_energy": "ucs_MPa", "fracture_energy": "kic_MPa_sqrt_m"},
+        "start": {"cohesion": 1.2}})
+    result = calibrate(config, BASE)
+    print(result["factors"], result["errors"])
+    assert result["converged"]
+    for key in ("ucs_MPa", "bts_MPa", "kic_MPa_sqrt_m", "youngs_modulus_GPa"):
+        assert abs(result["errors"][key]) < 0.01
+    q, f = result["recipe"].contacts["Q-Q"], result["factors"]
+    assert q.shear_fracture_energy_J_per_m2 / q.tensile_fracture_energy_J_per_m2 == (
+        pytest.approx(0.03 * f["shear_fracture_energy"]))
 
 
 @pytest.mark.parametrize("data, words", [
