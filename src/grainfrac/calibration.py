@@ -35,10 +35,10 @@ friction restores the UCS: ``examples/calibration/strathbogie-2d-softening.toml`
 
 With a shear fracture energy far below the tensile one (G_II / G_I = 0.0325,
 ``shear_to_tensile_fracture_energy``) K_IC / BTS reaches the lab's 0.21, but
-not together with its UCS / BTS (19.0) and nu (measured, seeds 0-5, 36
-evaluations: those with K_IC / BTS >= 0.21 and nu within 10 %
-have UCS / BTS 14.5-16.1 at G_I 640-1080 J/m^2; the five near 19 have K_IC / BTS 0.17-0.19 or nu
-0.32-0.34). The BTS and K_IC both follow the cohesion there (a log-linear fit
+not together with its UCS / BTS (19.0) and nu. Measured over seeds 0-5 in 36
+evaluations: those with K_IC / BTS >= 0.21 and nu within 10 % have UCS / BTS
+14.5-16.1 at G_I 640-1080 J/m^2; the five near 19 have K_IC / BTS 0.17-0.19 or
+nu 0.32-0.34. The BTS and K_IC both follow the cohesion there (a log-linear fit
 over 16 evaluations: d log K_IC / d log c = 1.1, d log BTS / d log c = 0.79,
 d log K_IC / d log G_I = 0.05). ``shear_fracture_energy`` scales G_II alone,
 so that the UCS can be solved for by it while ``fracture_energy`` holds K_IC
