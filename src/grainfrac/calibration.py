@@ -36,15 +36,20 @@ friction restores the UCS: ``examples/calibration/strathbogie-2d-softening.toml`
 
 With a shear fracture energy far below the tensile one (G_II / G_I = 0.0325,
 ``shear_to_tensile_fracture_energy``) K_IC / BTS reaches the lab's 0.21, but
-not together with its UCS / BTS (19.0) and nu. Measured over seeds 0-5 in 36
-evaluations: those with K_IC / BTS >= 0.21 and nu within 10 % have UCS / BTS
-14.5-16.1 at G_I 640-1080 J/m^2; the five near 19 have K_IC / BTS 0.17-0.19 or
-nu 0.32-0.34. The BTS and K_IC both follow the cohesion there (a log-linear fit
-over 16 evaluations: d log K_IC / d log c = 1.1, d log BTS / d log c = 0.79,
-d log K_IC / d log G_I = 0.05). ``shear_fracture_energy`` scales G_II alone,
-so that the UCS can be solved for by it while ``fracture_energy`` holds K_IC
-(``examples/calibration/strathbogie-2d-brittle-shear.toml``); but it raises the
-BTS more than the UCS (1.83 x G_II: BTS +14 %, UCS +4 %).
+the UCS / BTS of 19.0 needs a friction at which UCS specimens lock up: their
+split columns carry on without a peak. ``search_means`` therefore enters such
+a specimen's highest load into the root finder's mean (a lower bound on its
+strength), and the best evaluation is one where every test peaked. Before
+that rule the means were over the specimens that peaked, and they misled:
+the best of 36 evaluations at 2.58 x tan(phi) (UCS -9.5 %, BTS +8.6 %, K_IC
++8.9 %, E -0.3 %, nu +4.6 %) had three of its six UCS specimens peak at
+98-115 MPa and three carry 436-554 MPa without a peak (seeds 0-5). Softer
+contact shear (0.16 x ks) with 0.4 x the grain Poisson's ratios
+(``grain_poisson_ratio``) does not avoid it: at 1.8 / 2.0 / 2.2 x tan(phi)
+zero / three / two specimens lock, and at 1.8 x two split into columns that
+peak at 191-203 MPa with nu 0.54-0.61 while the others peak at 70-107 MPa.
+``shear_fracture_energy`` scales G_II alone (it raises the BTS more than the
+UCS: 1.83 x G_II, BTS +14 %, UCS +4 %).
 
 A brittle start recipe (every G_I zero) that solves for ``fracture_energy``
 starts from Irwin's G_I = K_IC^2 (1 - nu^2) / E of the targets on every
@@ -438,7 +443,7 @@ def _calibrate(config: CalibrationConfig, recipe: materials.RockRecipe, bench: L
                if no_peak else ""))
         if on_evaluation is not None:
             on_evaluation(history)
-        if history[-1]["max_error"] <= config.tolerance:
+        if history[-1]["max_error"] <= config.tolerance and not no_peak:
             raise _Stop
         seen[key] = r
         return r
@@ -477,7 +482,7 @@ def _calibrate(config: CalibrationConfig, recipe: materials.RockRecipe, bench: L
         "achieved": achieved,
         "errors": _errors(achieved, targets),
         "per_seed": runs,
-        "converged": best["max_error"] <= config.tolerance,
+        "converged": best["max_error"] <= config.tolerance and not best["no_peak_runs"],
         "targets": targets,
     }
 
