@@ -660,7 +660,7 @@ def hs_only(
     """Hydraulic stimulation only: ``[equilibrate, inject]`` (paper Fig. 17c at 90 ml/min).
 
     ``duration_ms`` defaults to :func:`default_inject_duration_ms` (12 ms at
-    90 ml/min on the default slab, where breakdown comes ~4 ms after the start
+    90 ml/min on the default slab, where breakdown comes 4-5 ms after the start
     of injection). ``extra`` are further top-level scenario fields
     (``specimen``, ``grains``, ``fluid``, ``output``...).
     """
