@@ -9,7 +9,7 @@ compares HS-only with hybrid runs.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +17,7 @@ from pydantic import Field, model_validator
 
 from grainfrac import materials
 from grainfrac.errors import ConfigError
+from grainfrac.geometry.blocks import zone_blocks
 from grainfrac.geometry.meshing import GrainMesh, mesh_grains
 from grainfrac.geometry.specimens import SlabSpec, SpecimenShapeSpec, outline
 from grainfrac.geometry.tessellation import tessellate
@@ -24,7 +25,8 @@ from grainfrac.io.config import StrictModel, read_toml, source_path, validate
 from grainfrac.units import MM
 
 # Named random streams, spawned from the seed in this order (never reorder).
-_STREAMS = ("tessellation", "minerals", "grain_weibull", "contact_weibull", "fissures")
+_STREAMS = ("tessellation", "minerals", "grain_weibull", "contact_weibull", "fissures",
+            "intragranular_weibull")
 
 
 class GrainSpec(StrictModel):
@@ -111,6 +113,11 @@ class GrainAssembly:
     Grain properties are per grain (``grain_*``), grain-boundary properties per
     interface (``interface_*``); the ``element_*`` and ``contact_*`` views map
     them onto elements and sub-contacts. SI units throughout.
+
+    With breakable grains (the recipe's ``intragranular`` section) the mesh's
+    "grains" are blocks, each one zone of a grain (:mod:`grainfrac.geometry.blocks`):
+    ``grain_*`` arrays are then per block, ``block_grain`` maps blocks to grains
+    and the interfaces between blocks of one grain are grain-interior contacts.
     """
 
     mesh: GrainMesh
@@ -131,10 +138,21 @@ class GrainAssembly:
     interface_tensile_strength: np.ndarray
     interface_tensile_fracture_energy: np.ndarray
     interface_shear_fracture_energy: np.ndarray
+    block_grain: np.ndarray | None = None
 
     @property
     def n_grains(self) -> int:
+        if self.block_grain is not None:
+            return int(self.block_grain.max()) + 1
         return self.mesh.grains.n_grains
+
+    @property
+    def interface_intragranular(self) -> np.ndarray:
+        """(f,) True for contacts between blocks of one grain (none if grains never break)."""
+        if self.block_grain is None:
+            return np.zeros(self.mesh.n_interfaces, dtype=bool)
+        ends = self.block_grain[self.mesh.interface_grains]
+        return ends[:, 0] == ends[:, 1]
 
     @property
     def pair_names(self) -> tuple[str, ...]:
@@ -244,7 +262,7 @@ def build_assembly(config: SpecimenConfig, recipe: materials.RockRecipe) -> Grai
     cohesion = np.where(fissure, 0.0, c_draw["cohesion_Pa"])
     tensile = np.where(fissure, 0.0, c_draw["tensile_strength_Pa"])
 
-    return GrainAssembly(
+    grain_level = GrainAssembly(
         mesh=mesh,
         recipe=recipe,
         seed=config.seed,
@@ -267,6 +285,63 @@ def build_assembly(config: SpecimenConfig, recipe: materials.RockRecipe) -> Grai
             fissure, 0.0, ctab.tensile_fracture_energy_J_per_m2[pair]),
         interface_shear_fracture_energy=np.where(
             fissure, 0.0, ctab.shear_fracture_energy_J_per_m2[pair]),
+    )
+    if recipe.intragranular is None:
+        return grain_level
+    return _breakable(grain_level, rngs["intragranular_weibull"])
+
+
+_INTERFACE_FIELDS = {
+    "normal_stiffness_Pa_per_m": "normal_stiffness",
+    "shear_stiffness_Pa_per_m": "shear_stiffness",
+    "friction_angle_rad": "friction_angle",
+    "cohesion_Pa": "cohesion",
+    "tensile_strength_Pa": "tensile_strength",
+}
+
+
+def _breakable(grains: GrainAssembly, rng: np.random.Generator) -> GrainAssembly:
+    """``grains`` with every zone a block: grain boundaries keep their drawn
+    properties, grain-interior contacts get the like pair's times the recipe's
+    ``intragranular`` factors, drawn from their own Weibull stream."""
+    recipe, ctab = grains.recipe, grains.contact_table
+    spec = recipe.intragranular
+    block_map, block_grain = zone_blocks(grains.mesh)
+    mesh = mesh_grains(block_map, grains.mesh.zone_size)
+    ends = block_grain[mesh.interface_grains]
+    inside = ends[:, 0] == ends[:, 1]
+    boundary_of = {(int(a), int(b)): i for i, (a, b) in enumerate(grains.mesh.interface_grains)}
+    source = np.array([0 if same else boundary_of[(min(a, b), max(a, b))]
+                       for (a, b), same in zip(ends.tolist(), inside, strict=True)],
+                      dtype=np.int64)
+    mineral = grains.grain_mineral[ends[:, 0]]
+    like = materials.pair_index(mineral, mineral, grains.mineral_table.n_minerals)
+    factor = {"normal_stiffness_Pa_per_m": spec.stiffness_factor,
+              "shear_stiffness_Pa_per_m": spec.stiffness_factor,
+              "cohesion_Pa": spec.cohesion_factor,
+              "tensile_strength_Pa": spec.tensile_strength_factor}
+    values = {}
+    for name in materials.WEIBULL_CONTACT_PROPERTIES:
+        interior = materials.weibull_draw(getattr(ctab, name)[like] * factor.get(name, 1.0), rng,
+                                          recipe.weibull, materials.WEIBULL_UPPER_BOUNDS.get(name))
+        boundary = getattr(grains, f"interface_{_INTERFACE_FIELDS[name]}")[source]
+        values[_INTERFACE_FIELDS[name]] = np.where(inside, interior, boundary)
+    for mode in ("tensile", "shear"):
+        interior = getattr(ctab, f"{mode}_fracture_energy_J_per_m2")[like]
+        boundary = getattr(grains, f"interface_{mode}_fracture_energy")[source]
+        values[f"{mode}_fracture_energy"] = np.where(
+            inside, spec.fracture_energy_factor * interior, boundary)
+    return replace(
+        grains,
+        mesh=mesh,
+        grain_mineral=grains.grain_mineral[block_grain],
+        grain_youngs_modulus=grains.grain_youngs_modulus[block_grain],
+        grain_poisson_ratio=grains.grain_poisson_ratio[block_grain],
+        grain_density=grains.grain_density[block_grain],
+        interface_pair=np.where(inside, like, grains.interface_pair[source]),
+        interface_fissure=~inside & grains.interface_fissure[source],
+        block_grain=block_grain,
+        **{f"interface_{k}": v for k, v in values.items()},
     )
 
 

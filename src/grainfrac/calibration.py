@@ -18,6 +18,8 @@ factor             multiplies                                    target
 ``friction``       tangent of the contact friction angles        UCS
 ``fracture_energy``  contact fracture energies G_I and G_II      K_IC (NSCB)
 ``shear_fracture_energy``  contact G_II alone                    UCS
+``grain_tensile_strength``  grain-interior tensile strengths     K_IC (NSCB)
+``grain_cohesion``  grain-interior cohesions                     UCS
 =================  ============================================  ==================
 
 Each target may be solved for by one factor only (``strength`` or
@@ -108,14 +110,15 @@ from pydantic import Field, field_validator, model_validator
 from grainfrac import materials
 from grainfrac.analysis import stats
 from grainfrac.assembly import FissureSpec, GrainSpec
-from grainfrac.errors import GrainfracError
+from grainfrac.errors import ConfigError, GrainfracError
 from grainfrac.io.config import StrictModel, read_toml, source_path, validate
 from grainfrac.io.files import write_csv, write_json, write_text, write_toml
 from grainfrac.labtests.config import LAB_GRAINS, LabTestConfig
 from grainfrac.units import GPA, MPA
 
 FACTORS = ("stiffness", "shear_ratio", "grain_poisson_ratio", "strength", "tensile_strength",
-           "cohesion", "friction", "fracture_energy", "shear_fracture_energy")
+           "cohesion", "friction", "fracture_energy", "shear_fracture_energy",
+           "grain_tensile_strength", "grain_cohesion")
 # Target quantity, the lab test that measures it, and the sign of d log(target) / d log(factor).
 PAIRING = {
     "stiffness": ("youngs_modulus_GPa", "ucs", +1.0),
@@ -127,10 +130,12 @@ PAIRING = {
     "friction": ("ucs_MPa", "ucs", +1.0),
     "fracture_energy": ("kic_MPa_sqrt_m", "nscb", +1.0),
     "shear_fracture_energy": ("ucs_MPa", "ucs", +1.0),
+    "grain_tensile_strength": ("kic_MPa_sqrt_m", "nscb", +1.0),
+    "grain_cohesion": ("ucs_MPa", "ucs", +1.0),
 }
 FactorName = Literal["stiffness", "shear_ratio", "grain_poisson_ratio", "strength",
                      "tensile_strength", "cohesion", "friction", "fracture_energy",
-                     "shear_fracture_energy"]
+                     "shear_fracture_energy", "grain_tensile_strength", "grain_cohesion"]
 TargetName = Literal["ucs_MPa", "bts_MPa", "kic_MPa_sqrt_m", "youngs_modulus_GPa",
                      "poisson_ratio"]
 # The lab test that measures each calibrated target.
@@ -275,6 +280,9 @@ def scaled_recipe(recipe: materials.RockRecipe, factors: dict[str, float], *,
         contact["tensile_fracture_energy_J_per_m2"] *= f["fracture_energy"]
         contact["shear_fracture_energy_J_per_m2"] *= (f["fracture_energy"]
                                                       * f["shear_fracture_energy"])
+    if data.get("intragranular") is not None:
+        data["intragranular"]["tensile_strength_factor"] *= f["grain_tensile_strength"]
+        data["intragranular"]["cohesion_factor"] *= f["grain_cohesion"]
     if initial_aperture_m is not None:
         data["hydraulic"]["initial_aperture_m"] = initial_aperture_m
     if name is not None:
@@ -364,6 +372,11 @@ def calibrate(config: CalibrationConfig, recipe: materials.RockRecipe, *,
     interrupted run and goes on from where it stopped.
     """
     say = log or (lambda _msg: None)
+    grain_factors = [f for f in config.pairing() if f in ("grain_tensile_strength",
+                                                          "grain_cohesion")]
+    if grain_factors and recipe.intragranular is None:
+        raise ConfigError(f"factors.{grain_factors[0]}",
+                          "needs breakable grains: the rock recipe has no intragranular section")
     with LabBench(config.seeds, config.grains, config.workers) as bench:
         return _calibrate(config, recipe, bench, say, on_evaluation, replay or [])
 

@@ -50,6 +50,7 @@ from pydantic import (
     ValidationError,
     ValidationInfo,
     field_validator,
+    model_serializer,
     model_validator,
 )
 from pydantic_core import InitErrorDetails, PydanticCustomError
@@ -64,6 +65,7 @@ __all__ = [
     "WEIBULL_GRAIN_PROPERTIES",
     "ContactProperties",
     "ContactTable",
+    "IntragranularSpec",
     "Mineral",
     "MineralTable",
     "RockRecipe",
@@ -186,6 +188,27 @@ class HydraulicSpec(StrictModel):
                                       description="initial hydraulic aperture a0 [m]")
 
 
+class IntragranularSpec(StrictModel):
+    """Breakable grains: every zone of a grain is a block of its own (UDEC's Trigon).
+
+    The contacts between blocks of one grain take the like pair's properties
+    (``Q-Q`` inside a quartz grain) times these factors, with their own Weibull
+    draws; friction is the like pair's. Without this section grains never break
+    (the paper's model: intergranular cracks only). In 2D, unbreakable grains
+    lock up in compression: the split columns of a UCS specimen carry on
+    without a peak at the friction that the lab's UCS / BTS asks for.
+    """
+
+    tensile_strength_factor: float = Field(gt=0, le=100, description=(
+        "grain-interior tensile strength / the like pair's [-]"))
+    cohesion_factor: float = Field(gt=0, le=100, description=(
+        "grain-interior cohesion / the like pair's [-]"))
+    stiffness_factor: float = Field(default=1.0, gt=0, le=1000, description=(
+        "grain-interior kn and ks / the like pair's [-]"))
+    fracture_energy_factor: float = Field(default=1.0, ge=0, le=100, description=(
+        "grain-interior G_I and G_II / the like pair's [-]"))
+
+
 def _pair_error(key: str, message: str, value: Any) -> ValidationError:
     """A ValidationError located at ``<field>.<key>`` (pydantic prefixes the field)."""
     return ValidationError.from_exception_data(
@@ -212,6 +235,16 @@ class RockRecipe(StrictModel):
     weibull: WeibullSpec = Field(default_factory=WeibullSpec, description="Weibull draws")
     hydraulic: HydraulicSpec = Field(default_factory=HydraulicSpec,
                                      description="intact grain-boundary aperture")
+    intragranular: IntragranularSpec | None = Field(
+        default=None, description="breakable grains (none: grains never break)")
+
+    @model_serializer(mode="wrap")
+    def _without_absent_sections(self, handler: Any) -> dict[str, Any]:
+        # TOML has no null: a recipe without breakable grains dumps as before.
+        data = handler(self)
+        if data.get("intragranular") is None:
+            data.pop("intragranular", None)
+        return data
 
     @field_validator("minerals")
     @classmethod

@@ -1,0 +1,134 @@
+"""Breakable grains: every zone a block, grain-interior contacts beside grain boundaries."""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pytest
+
+from grainfrac.assembly import GrainAssembly, build_specimen
+from grainfrac.calibration import CalibrationConfig, calibrate, scaled_recipe
+from grainfrac.errors import ConfigError
+from grainfrac.geometry.blocks import zone_blocks
+from grainfrac.io.config import validate
+from grainfrac.materials import RockRecipe, load_recipe, pair_index
+
+INTERIOR = {"tensile_strength_factor": 2.0, "cohesion_factor": 3.0, "stiffness_factor": 1.5,
+            "fracture_energy_factor": 0.5}
+DISK = {"specimen": {"shape": "disk", "diameter_mm": 38.0},
+        "grains": {"min_edge_mm": 2.0, "max_edge_mm": 5.0, "zone_size_mm": 1.25}}
+
+
+def _rock(weibull: bool = True, **interior) -> dict:
+    rock = copy.deepcopy(load_recipe("strathbogie-granite").model_dump())
+    rock["intragranular"] = {**INTERIOR, **interior}
+    rock["weibull"]["enabled"] = weibull
+    for contact in rock["contacts"].values():
+        contact["tensile_fracture_energy_J_per_m2"] = 40.0
+        contact["shear_fracture_energy_J_per_m2"] = 4.0
+    return rock
+
+
+@pytest.fixture(scope="module")
+def grains() -> GrainAssembly:
+    return build_specimen({**DISK, "rock": {**_rock(), "intragranular": None}})
+
+
+@pytest.fixture(scope="module")
+def blocks() -> GrainAssembly:
+    return build_specimen({**DISK, "rock": _rock()})
+
+
+def test_the_blocks_tile_the_specimen_and_share_their_faces(grains):
+    block_map, block_grain = zone_blocks(grains.mesh)
+    assert block_map.n_grains == grains.mesh.n_elements
+    assert np.array_equal(block_grain, grains.mesh.element_grain)
+    areas = block_map.grain_areas()
+    assert np.all(areas > 0)  # counter-clockwise triangles
+    assert areas.sum() == pytest.approx(grains.mesh.grains.grain_areas().sum(), rel=1e-12)
+    owners = np.array([len(o) for o in block_map.segments().values()])
+    assert set(owners) == {1, 2}
+    # one owner: exactly the specimen's outline
+    outline = sum(len(o) == 1 for o in block_map.segments().values())
+    assert outline == np.count_nonzero(owners == 1)
+    boundary = [k for k, o in block_map.segments().items() if len(o) == 1]
+    assert np.all(block_map.on_boundary[np.array(boundary)])
+
+
+def test_grain_boundaries_keep_their_properties_and_grains_their_minerals(grains, blocks):
+    assert blocks.n_grains == grains.n_grains
+    assert np.array_equal(blocks.grain_mineral, grains.grain_mineral[blocks.block_grain])
+    inside = blocks.interface_intragranular
+    assert 0 < inside.sum() < len(inside)
+    ends = blocks.block_grain[blocks.mesh.interface_grains[~inside]]
+    index = {tuple(p): i for i, p in enumerate(grains.mesh.interface_grains.tolist())}
+    source = np.array([index[(min(a, b), max(a, b))] for a, b in ends.tolist()])
+    for name in ("pair", "tensile_strength", "cohesion", "friction_angle", "normal_stiffness",
+                 "shear_stiffness", "tensile_fracture_energy"):
+        assert np.array_equal(getattr(blocks, f"interface_{name}")[~inside],
+                              getattr(grains, f"interface_{name}")[source]), name
+    # every grain boundary of the grain-level assembly is still there, in pieces
+    assert set(source.tolist()) == set(range(grains.mesh.n_interfaces))
+    assert not grains.interface_intragranular.any() and grains.block_grain is None
+
+
+def test_grain_interiors_take_the_like_pair_times_the_recipe_factors():
+    a = build_specimen({**DISK, "rock": _rock(weibull=False)})
+    inside = a.interface_intragranular
+    mineral = a.grain_mineral[a.mesh.interface_grains[inside, 0]]
+    like = pair_index(mineral, mineral, a.mineral_table.n_minerals)
+    assert np.array_equal(a.interface_pair[inside], like)
+    t = a.contact_table
+    for name, table, factor in (
+            ("tensile_strength", t.tensile_strength_Pa, 2.0),
+            ("cohesion", t.cohesion_Pa, 3.0),
+            ("normal_stiffness", t.normal_stiffness_Pa_per_m, 1.5),
+            ("shear_stiffness", t.shear_stiffness_Pa_per_m, 1.5),
+            ("friction_angle", t.friction_angle_rad, 1.0),
+            ("tensile_fracture_energy", t.tensile_fracture_energy_J_per_m2, 0.5),
+            ("shear_fracture_energy", t.shear_fracture_energy_J_per_m2, 0.5)):
+        np.testing.assert_allclose(getattr(a, f"interface_{name}")[inside], factor * table[like],
+                                   rtol=1e-12, err_msg=name)
+
+
+def test_fissures_stay_on_grain_boundaries():
+    a = build_specimen({**DISK, "rock": _rock(), "fissures": {"fraction": 0.2}})
+    assert a.interface_fissure.any()
+    assert not (a.interface_fissure & a.interface_intragranular).any()
+
+
+def test_same_seed_same_blocks(blocks):
+    again = build_specimen({**DISK, "rock": _rock()})
+    for name in ("tensile_strength", "cohesion", "shear_stiffness"):
+        assert np.array_equal(getattr(again, f"interface_{name}"),
+                              getattr(blocks, f"interface_{name}"))
+
+
+@pytest.mark.parametrize("field, value, message", [
+    ("tensile_strength_factor", 0.0, "must be > 0.0 (got 0.0)"),
+    ("cohesion_factor", -1.0, "must be > 0.0 (got -1.0)"),
+    ("stiffness_factor", 2000.0, "must be <= 1000"),
+])
+def test_bad_interior_factors_name_the_field(field, value, message):
+    with pytest.raises(ConfigError) as info:
+        validate(RockRecipe, _rock(**{field: value}))
+    assert f"intragranular.{field}" in str(info.value) and message in str(info.value)
+
+
+def test_calibration_scales_the_interior_strengths():
+    recipe = validate(RockRecipe, _rock())
+    scaled = scaled_recipe(recipe, {"grain_tensile_strength": 0.5, "grain_cohesion": 4.0})
+    assert scaled.intragranular.tensile_strength_factor == pytest.approx(1.0)
+    assert scaled.intragranular.cohesion_factor == pytest.approx(12.0)
+    assert scaled.intragranular.stiffness_factor == pytest.approx(1.5)
+
+
+def test_interior_factors_need_breakable_grains():
+    config = validate(CalibrationConfig, {
+        "seeds": [0], "factors": {"grain_cohesion": "ucs_MPa"},
+        "targets": {"ucs_MPa": 120.0, "bts_MPa": 6.0, "kic_MPa_sqrt_m": 1.3,
+                    "youngs_modulus_GPa": 17.0, "poisson_ratio": 0.24,
+                    "permeability_m2": 1e-19}})
+    with pytest.raises(ConfigError, match="factors.grain_cohesion: needs breakable grains"):
+        calibrate(config, load_recipe("strathbogie-granite"))
