@@ -484,7 +484,10 @@ def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
     if run.coupled is not None:
         out["hydraulic_energy_J"] = run.coupled.hydraulic_energy()
         out["warnings"] += hydraulic_energy_warnings(out["hydraulic_energy_J"])
-    total, failed = contact_fractions(a.contact_view("pair"), a.contact_view("pair")[contact],
+    # Grain boundaries only (paper Fig. 14e): a crack through a quartz grain is no Q-Q contact.
+    on_boundary = ~a.contact_view("intragranular")
+    pair = a.contact_view("pair")
+    total, failed = contact_fractions(pair[on_boundary], pair[contact[on_boundary[contact]]],
                                       a.pair_names)
     out["contact_fraction_total"] = total
     out["contact_fraction_failed"] = failed
