@@ -132,3 +132,12 @@ def test_interior_factors_need_breakable_grains():
                     "permeability_m2": 1e-19}})
     with pytest.raises(ConfigError, match="factors.grain_cohesion: needs breakable grains"):
         calibrate(config, load_recipe("strathbogie-granite"))
+
+
+def test_example_rock_recipes_are_valid():
+    from pathlib import Path
+
+    rocks = sorted((Path(__file__).parents[1] / "examples" / "rocks").glob("*.toml"))
+    assert rocks
+    for path in rocks:
+        assert load_recipe(path).intragranular is not None, path.name
