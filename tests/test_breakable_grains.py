@@ -40,6 +40,13 @@ def blocks() -> GrainAssembly:
     return build_specimen({**DISK, "rock": _rock()})
 
 
+def _outer_length(grain_map) -> float:
+    """Length of the segments that only one grain (or block) owns: the specimen's outline."""
+    ends = np.array([k for k, o in grain_map.segments().items() if len(o) == 1])
+    v = grain_map.vertices
+    return float(np.hypot(*(v[ends[:, 1]] - v[ends[:, 0]]).T).sum())
+
+
 def test_the_blocks_tile_the_specimen_and_share_their_faces(grains):
     block_map, block_grain = zone_blocks(grains.mesh)
     assert block_map.n_grains == grains.mesh.n_elements
@@ -50,10 +57,9 @@ def test_the_blocks_tile_the_specimen_and_share_their_faces(grains):
     owners = np.array([len(o) for o in block_map.segments().values()])
     assert set(owners) == {1, 2}
     # one owner: exactly the specimen's outline
-    outline = sum(len(o) == 1 for o in block_map.segments().values())
-    assert outline == np.count_nonzero(owners == 1)
-    boundary = [k for k, o in block_map.segments().items() if len(o) == 1]
-    assert np.all(block_map.on_boundary[np.array(boundary)])
+    boundary = np.array([k for k, o in block_map.segments().items() if len(o) == 1])
+    assert np.all(block_map.on_boundary[boundary])
+    assert _outer_length(block_map) == pytest.approx(_outer_length(grains.mesh.grains), rel=1e-12)
 
 
 def test_grain_boundaries_keep_their_properties_and_grains_their_minerals(grains, blocks):
@@ -124,9 +130,11 @@ def test_calibration_scales_the_interior_strengths():
     assert scaled.intragranular.stiffness_factor == pytest.approx(1.5)
 
 
-def test_interior_factors_need_breakable_grains():
+@pytest.mark.parametrize("asked", [{"factors": {"grain_cohesion": "ucs_MPa"}},
+                                   {"factors": ["stiffness"], "start": {"grain_cohesion": 2.0}}])
+def test_interior_factors_need_breakable_grains(asked):
     config = validate(CalibrationConfig, {
-        "seeds": [0], "factors": {"grain_cohesion": "ucs_MPa"},
+        "seeds": [0], **asked,
         "targets": {"ucs_MPa": 120.0, "bts_MPa": 6.0, "kic_MPa_sqrt_m": 1.3,
                     "youngs_modulus_GPa": 17.0, "poisson_ratio": 0.24,
                     "permeability_m2": 1e-19}})

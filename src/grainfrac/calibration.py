@@ -372,8 +372,8 @@ def calibrate(config: CalibrationConfig, recipe: materials.RockRecipe, *,
     interrupted run and goes on from where it stopped.
     """
     say = log or (lambda _msg: None)
-    grain_factors = [f for f in config.pairing() if f in ("grain_tensile_strength",
-                                                          "grain_cohesion")]
+    grain_factors = [f for f in ("grain_tensile_strength", "grain_cohesion")
+                     if f in config.pairing() or f in config.start]
     if grain_factors and recipe.intragranular is None:
         raise ConfigError(f"factors.{grain_factors[0]}",
                           "needs breakable grains: the rock recipe has no intragranular section")
