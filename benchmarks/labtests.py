@@ -1,7 +1,9 @@
 """Wall time of each virtual lab test and of a calibration (issue 6).
 
-    python benchmarks/labtests.py              # the four tests, seed 0
-    python benchmarks/labtests.py --calibrate  # also the example calibration (minutes)
+    python benchmarks/labtests.py                      # the four tests, Table 2, seed 0
+    python benchmarks/labtests.py --rock examples/rocks/strathbogie-granite-breakable.toml
+    python benchmarks/labtests.py --calibrate          # also the example calibration (minutes)
+    python benchmarks/labtests.py --calibrate examples/calibration/strathbogie-2d-breakable.toml
 
 Prints one line per test (value, grains, steps, wall time) and, with
 --calibrate, the evaluations, the target-vs-achieved table and the total time.
@@ -9,7 +11,7 @@ Prints one line per test (value, grains, steps, wall time) and, with
 
 from __future__ import annotations
 
-import sys
+import argparse
 import time
 from pathlib import Path
 from tempfile import TemporaryDirectory
@@ -18,21 +20,29 @@ from grainfrac.labtests import lab_test_config, measure
 
 KEYS = {"ucs": "ucs_MPa", "bts": "bts_MPa", "nscb": "kic_MPa_sqrt_m",
         "permeability": "permeability_m2"}
+EXAMPLE = Path(__file__).parents[1] / "examples" / "calibration" / "strathbogie-2d.toml"
 
 
 def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--rock", default="strathbogie-granite",
+                        help="rock preset or recipe TOML for the four tests")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--calibrate", nargs="?", const=EXAMPLE, type=Path, default=None,
+                        metavar="TARGETS", help="also time this calibration")
+    args = parser.parse_args()
+
     measure(lab_test_config("bts", seed=0, loading={"max_strain": 1e-4}))  # compile kernels
     for test, key in KEYS.items():
         start = time.perf_counter()
-        s = measure(lab_test_config(test, seed=0))["summary"]
+        s = measure(lab_test_config(test, seed=args.seed, rock=args.rock))["summary"]
         wall = time.perf_counter() - start
         print(f"{test:<13} {key} = {s[key]:.4g}  ({s['n_grains']} grains, "
               f"{s.get('steps', '-')} steps)  wall {wall:.2f} s", flush=True)
-    if "--calibrate" in sys.argv:
+    if args.calibrate is not None:
         from grainfrac import calibration
 
-        example = Path(__file__).parents[1] / "examples" / "calibration" / "strathbogie-2d.toml"
-        config, recipe = calibration.load_calibration_config(example)
+        config, recipe = calibration.load_calibration_config(args.calibrate)
         start = time.perf_counter()
         result = calibration.calibrate(config, recipe, log=lambda m: print("  " + m, flush=True))
         wall = time.perf_counter() - start

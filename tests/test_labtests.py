@@ -138,6 +138,20 @@ def test_nscb_peak_is_the_maximum_past_the_crack_first_step_from_the_notch():
     assert first_peak(load, LoadingSpec().resolved("ucs").peak_drop_fraction)[0] == 29
 
 
+def test_nscb_peak_is_found_while_a_cohesive_tail_bridges_the_crossed_ligament():
+    """An NSCB curve whose crack has crossed the ligament but whose cohesive tail
+    still carries 0.56 x the peak (the shape measured at seed 1, calibrated
+    breakable rock: 0.80 kN, then 0.45-0.50 kN for 0.4 mm): the NSCB rule finds
+    the peak at the fall, so the test stops there instead of running on."""
+    spec = LoadingSpec().resolved("nscb")
+    load = np.concatenate([np.linspace(0.0, 0.80, 30), [0.61, 0.66, 0.77, 0.64],
+                           np.full(200, 0.45)])
+    index, found = first_peak(load, spec.peak_drop_fraction)
+    assert found and load[index] == 0.80
+    assert first_peak(load[:40], spec.peak_drop_fraction)[1]  # found within the fall
+    assert not first_peak(load, 0.5)[1]  # halving never comes: it would run to max_strain
+
+
 # ---------------------------------------------------------------------------------
 # the four tests on the paper's Table 2 micro-parameters
 # ---------------------------------------------------------------------------------

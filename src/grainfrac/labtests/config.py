@@ -42,7 +42,7 @@ _PLATEN_TEST = {"stop_fraction": 0.7, "peak_drop_fraction": 0.02}
 DEFAULT_LOADING = {
     "ucs": {"platen_speed_mm_per_s": 25.0, **_PLATEN_TEST},
     "bts": {"platen_speed_mm_per_s": 25.0, **_PLATEN_TEST},
-    "nscb": {"platen_speed_mm_per_s": 1.25, "stop_fraction": 0.3, "peak_drop_fraction": 0.5},
+    "nscb": {"platen_speed_mm_per_s": 1.25, "stop_fraction": 0.3, "peak_drop_fraction": 0.4},
     "permeability": {"platen_speed_mm_per_s": 25.0, **_PLATEN_TEST},
 }
 
@@ -79,8 +79,14 @@ class LoadingSpec(StrictModel):
     step from the notch tip can drop the load and the ligament then carries
     more (measured, softening contacts, seed 7: a 12 % fall at 0.35 kN, then
     0.89 kN; a 2 % rule read 0.28 instead of 0.71 MPa m^0.5). So the peak is
-    the maximum before the load has halved, and the test runs until it falls
-    below 0.3 x that maximum.
+    the maximum before the load has fallen 40 % below it, and the test runs
+    until it falls below 0.3 x that maximum or the platen has closed 1.5 x
+    the closure at the peak. Not 50 %: with breakable grains the crack's
+    cohesive tail (G_I = 679 J/m^2) can bridge a crossed ligament at 0.56 x
+    the peak load (measured, calibrated breakable rock, seed 1: a peak of
+    0.80 kN at 0.015 mm, then 0.45-0.50 kN until 0.42 mm, 812 s); a 40 % fall
+    finds that peak at 0.045 mm, and gives the same peak as 50 % on seeds 2,
+    4 and 5.
     """
 
     platen_speed_mm_per_s: float | None = Field(
