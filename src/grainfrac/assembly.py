@@ -155,6 +155,11 @@ class GrainAssembly:
         return ends[:, 0] == ends[:, 1]
 
     @property
+    def contact_intragranular(self) -> np.ndarray:
+        """(c,) True for the sub-contacts of grain-interior contacts."""
+        return self.interface_intragranular[self.mesh.contact_interface]
+
+    @property
     def pair_names(self) -> tuple[str, ...]:
         return self.contact_table.pair_names
 

@@ -296,6 +296,7 @@ class Run:
         network = flow.build_flow_network(
             self.assembly.mesh, permeable_sides=fluid.fixed_pressures(), well=True,
             well_compressibility=fluid.well_compressibility,
+            sealed=self.assembly.contact_intragranular,
         )
         a0 = self.assembly.recipe.hydraulic.initial_aperture_m
         return HydroMechanicalSolver(self.assembly, self.solver, network, fluid.properties(a0))

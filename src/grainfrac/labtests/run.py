@@ -86,7 +86,8 @@ def _permeability(config: LabTestConfig, assembly: GrainAssembly) -> dict[str, A
     fluid = replace(flow.FluidProperties(), viscosity=spec.viscosity_Pa_s)
     result = measure_permeability(assembly.mesh, a0, fluid=fluid,
                                   pressure_in=spec.pressure_in_MPa * MPA,
-                                  pressure_out=spec.pressure_out_MPa * MPA)
+                                  pressure_out=spec.pressure_out_MPa * MPA,
+                                  sealed=assembly.contact_intragranular)
     keys = ("permeability_m2", "initial_aperture_m", "flow_rate_m3_s", "outflow_m3_s",
             "mean_flow_per_width_m2_s", "area_m2", "height_m", "pressure_drop_Pa", "steps")
     return {k: result[k] for k in keys}

@@ -95,7 +95,8 @@ class HydroMechanicalSolver:
     mechanics
         Mechanics solver (its current ``loads.external`` is kept as the base load).
     network
-        Flow network (permeable sides, well).
+        Flow network (permeable sides, well) with every pipe; the pipes of intact
+        sealed faces are left out while they stay bonded (:func:`flow.conducting`).
     fluid
         Fluid and aperture parameters.
     """
@@ -104,7 +105,9 @@ class HydroMechanicalSolver:
                  network: flow.FlowNetwork, fluid: flow.FluidProperties):
         self.assembly = assembly
         self.mechanics = mechanics
-        self.network = network
+        # Every pipe, sealed grain interiors included; self.network conducts.
+        self._all_pipes = network
+        self.network = flow.conducting(network, mechanics.bonded[:assembly.mesh.n_contacts])
         self.fluid = fluid
         self.base_external = mechanics.loads.external.copy()
         self._wall_loop = (flow.borehole_wall_loop(assembly.mesh)
@@ -410,6 +413,8 @@ class HydroMechanicalSolver:
         """Apertures, compliances and borehole void of the current mechanical state."""
         count = self.mechanics.step_count
         if self._pores is None or self._pores[0] != count:
+            self.network = flow.conducting(
+                self._all_pipes, self.mechanics.bonded[:self.assembly.mesh.n_contacts])
             cracks = self._open_cracks()
             local, shared = self.crack_compliance(cracks)
             self._pores = (count, _Pores(self.aperture(), self.pore_compliance(cracks), local,

@@ -26,11 +26,16 @@ unknown: the fluid nodes on the borehole wall are merged into it, its storage
 is ``V_well c_well p`` plus theirs, and the injection rate is its source.
 Where a crack opens faster than fluid arrives, content falls below the void
 volume: the node is unsaturated and its pressure is zero (no suction).
+
+Grains are impermeable (paper Sect. 2.1): with breakable grains the faces
+between the blocks of one grain are ``sealed`` sub-contacts, whose pipes carry
+no flow until the face has cracked (:func:`conducting`). They keep their pore
+void, so the pressure solve stays regular.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.sparse as sp
@@ -71,6 +76,7 @@ class FlowNetwork:
     pipe_index: np.ndarray  # (q',) which mesh pipe
     fixed: np.ndarray  # (n_unknowns,) bool
     fixed_pressure: np.ndarray  # (n_unknowns,)
+    sealed: np.ndarray | None = None  # (c,) sub-contacts that conduct only once broken
 
     @property
     def contact_unknown(self) -> np.ndarray:
@@ -83,8 +89,9 @@ def build_flow_network(
     permeable_sides: dict[str, float] | None = None,
     well: bool = True,
     well_compressibility: float = 1.0 / 2.0e9,
+    sealed: np.ndarray | None = None,
 ) -> FlowNetwork:
-    """Flow unknowns for a mesh.
+    """Flow unknowns for a mesh, with every pipe conducting (see :func:`conducting`).
 
     Parameters
     ----------
@@ -96,7 +103,12 @@ def build_flow_network(
         Merge the borehole-wall fluid nodes into one well unknown.
     well_compressibility
         Compressibility of the well fluid volume (1/Pa), default that of water.
+    sealed
+        (c,) bool: sub-contacts that carry no flow while bonded (grain interiors
+        of breakable grains); None or all False: every sub-contact conducts.
     """
+    if sealed is not None and len(sealed) != mesh.n_contacts:
+        raise ValueError(f"sealed has {len(sealed)} entries for {mesh.n_contacts} sub-contacts")
     n_nodes = len(mesh.fluid_node_xy)
     unknown = np.arange(n_nodes)
     well_unknown = -1
@@ -132,7 +144,26 @@ def build_flow_network(
         pipe_index=np.flatnonzero(distinct),
         fixed=fixed,
         fixed_pressure=fixed_pressure,
+        sealed=None if sealed is None or not np.any(sealed) else np.asarray(sealed, dtype=bool),
     )
+
+
+def conducting(network: FlowNetwork, bonded: np.ndarray | None = None) -> FlowNetwork:
+    """``network`` (built with every pipe) less the pipes of intact sealed faces.
+
+    A pipe is shut while both its end sub-contacts are sealed and bonded: once
+    either end has cracked, the face conducts at the mean of the end apertures,
+    as a grain boundary does. ``bonded`` None: every sub-contact intact.
+    """
+    if network.sealed is None:
+        return network
+    ends = network.mesh.pipe_contacts[network.pipe_index]
+    shut = network.sealed[ends]
+    if bonded is not None:
+        shut &= np.asarray(bonded, dtype=bool)[ends]
+    keep = ~shut.all(axis=1)
+    return replace(network, pipe_unknowns=network.pipe_unknowns[keep],
+                   pipe_index=network.pipe_index[keep])
 
 
 def borehole_wall_loop(mesh: GrainMesh) -> np.ndarray:

@@ -180,18 +180,20 @@ def permeability_mesh(recipe: str | materials.RockRecipe = "strathbogie-granite"
 def measure_permeability(mesh: GrainMesh, initial_aperture: float = TABLE4_APERTURE_M, *,
                          fluid: flow.FluidProperties | None = None,
                          pressure_in: float = TABLE4_PRESSURE_IN,
-                         pressure_out: float = TABLE4_PRESSURE_OUT) -> dict:
+                         pressure_out: float = TABLE4_PRESSURE_OUT,
+                         sealed: np.ndarray | None = None) -> dict:
     """Constant-head test on a meshed rectangle: top at ``pressure_in``, bottom at ``pressure_out``.
 
     Every sub-contact is at ``initial_aperture`` (intact, unloaded: see the
-    module notes). Returns the flow rate into the top (``flow_rate_m3_s``),
+    module notes); ``sealed`` sub-contacts (intact grain interiors) carry no flow. Returns the flow rate into the top (``flow_rate_m3_s``),
     out of the bottom (``outflow_m3_s``), the permeability of Eq. (8) with
     ``A = width x thickness`` and ``H`` the height, and the steps to steady state.
     """
     fluid = replace(fluid or flow.FluidProperties(), initial_aperture=initial_aperture,
                     residual_aperture=initial_aperture)
-    network = flow.build_flow_network(
-        mesh, permeable_sides={"top": pressure_in, "bottom": pressure_out}, well=False)
+    network = flow.conducting(flow.build_flow_network(
+        mesh, permeable_sides={"top": pressure_in, "bottom": pressure_out}, well=False,
+        sealed=sealed))
     aperture = flow.pore_aperture(np.zeros(mesh.n_contacts), fluid)
     head = abs(pressure_in - pressure_out)
     state, steps = run_to_steady_state(network, aperture, fluid, head=head)
