@@ -185,9 +185,10 @@ def measure_permeability(mesh: GrainMesh, initial_aperture: float = TABLE4_APERT
     """Constant-head test on a meshed rectangle: top at ``pressure_in``, bottom at ``pressure_out``.
 
     Every sub-contact is at ``initial_aperture`` (intact, unloaded: see the
-    module notes); ``sealed`` sub-contacts (intact grain interiors) carry no flow. Returns the flow rate into the top (``flow_rate_m3_s``),
-    out of the bottom (``outflow_m3_s``), the permeability of Eq. (8) with
-    ``A = width x thickness`` and ``H`` the height, and the steps to steady state.
+    module notes); ``sealed`` sub-contacts (intact grain interiors) carry no
+    flow. Returns the flow rate into the top (``flow_rate_m3_s``), out of the
+    bottom (``outflow_m3_s``), the permeability of Eq. (8) with ``A = width x
+    thickness`` and ``H`` the height, and the steps to steady state.
     """
     fluid = replace(fluid or flow.FluidProperties(), initial_aperture=initial_aperture,
                     residual_aperture=initial_aperture)
