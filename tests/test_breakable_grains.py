@@ -199,3 +199,42 @@ def test_a_cracked_grain_interior_conducts(blocks):
     # whole grains: nothing is sealed and every pipe conducts
     plain = flow.build_flow_network(mesh, well=False, sealed=np.zeros(mesh.n_contacts, bool))
     assert plain.sealed is None and flow.conducting(plain, bonded) is plain
+
+
+def test_injection_into_breakable_grains_follows_the_bonds_of_the_grain_interiors():
+    """The coupled solver lets fluid through a grain interior once it has cracked: its
+    conducting pipes follow the mechanics' bond states (a face broken by hand joins
+    them at the next step), and the fluid volume balance still closes."""
+    from grainfrac.assembly import SpecimenConfig, build_assembly
+    from grainfrac.loading.insitu import STRESS_CASES, initialise_in_situ
+    from grainfrac.physics import flow
+    from grainfrac.physics.coupled import HydroMechanicalSolver
+    from grainfrac.physics.model import build_mechanical_model
+    from grainfrac.physics.solver import MechanicsSolver
+    from grainfrac.units import MPA
+
+    slab = {"shape": "slab", "width_mm": 30.0, "height_mm": 30.0}
+    config = validate(SpecimenConfig, {"seed": 1, "specimen": slab, "rock": _rock()})
+    assembly = build_assembly(config, config.recipe())
+    mesh = assembly.mesh
+    mechanics = MechanicsSolver(build_mechanical_model(assembly))
+    sx, sy, _ = STRESS_CASES["case2"]
+    initialise_in_situ(mechanics, mesh, sx * MPA, sy * MPA)
+    network = flow.build_flow_network(mesh, well=True, sealed=assembly.contact_intragranular,
+                                      permeable_sides=dict.fromkeys(("left", "right"), 0.0))
+    solver = HydroMechanicalSolver(assembly, mechanics, network, flow.FluidProperties())
+    n = mesh.n_contacts
+    assert np.array_equal(solver.network.pipe_index,
+                          flow.conducting(network, mechanics.bonded[:n]).pipe_index)
+    shut = np.flatnonzero(~np.isin(network.pipe_index, solver.network.pipe_index))
+    assert len(shut) > 0
+    face = mesh.contact_interface[mesh.pipe_contacts[network.pipe_index[shut[0]], 0]]
+    mechanics.bonded[np.flatnonzero(mesh.contact_interface == face)] = False
+    free = ~network.fixed
+    held = solver.state.stored(free)
+    for _ in range(20):
+        solver.advance(1.0e-5, 1.0e-7)
+    assert network.pipe_index[shut[0]] in solver.network.pipe_index
+    s = solver.state
+    assert s.injected > 0 and s.stored(free) - held == pytest.approx(s.injected - s.outflow,
+                                                                      rel=1e-9)
