@@ -107,7 +107,7 @@ class HydroMechanicalSolver:
         self.mechanics = mechanics
         # Every pipe, sealed grain interiors included; self.network conducts.
         self._all_pipes = network
-        self.network = flow.conducting(network, mechanics.bonded[:assembly.mesh.n_contacts])
+        self.network = self._conducting_network()
         self.fluid = fluid
         self.base_external = mechanics.loads.external.copy()
         self._wall_loop = (flow.borehole_wall_loop(assembly.mesh)
@@ -143,6 +143,11 @@ class HydroMechanicalSolver:
         # count: the next step starts from the same mechanical state.
         self._pores: tuple[int, _Pores] | None = None
         self._apply_pressure()
+
+    def _conducting_network(self) -> flow.FlowNetwork:
+        """The network less the pipes of grain-interior faces still bonded."""
+        return flow.conducting(self._all_pipes,
+                               self.mechanics.bonded[:self.assembly.mesh.n_contacts])
 
     def aperture(self) -> np.ndarray:
         n = self.assembly.mesh.n_contacts
@@ -413,8 +418,7 @@ class HydroMechanicalSolver:
         """Apertures, compliances and borehole void of the current mechanical state."""
         count = self.mechanics.step_count
         if self._pores is None or self._pores[0] != count:
-            self.network = flow.conducting(
-                self._all_pipes, self.mechanics.bonded[:self.assembly.mesh.n_contacts])
+            self.network = self._conducting_network()
             cracks = self._open_cracks()
             local, shared = self.crack_compliance(cracks)
             self._pores = (count, _Pores(self.aperture(), self.pore_compliance(cracks), local,
