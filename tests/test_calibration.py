@@ -19,6 +19,8 @@ from grainfrac.errors import ConfigError, GrainfracError
 from grainfrac.io.config import validate
 
 BASE = materials.load_recipe("strathbogie-granite")
+EXAMPLES = Path(__file__).parents[1] / "examples"
+EXAMPLE_ROCK = EXAMPLES / "rocks" / "strathbogie-granite-breakable.toml"
 
 
 def test_scaled_recipe_scales_what_the_table_says():
@@ -407,3 +409,74 @@ def test_the_2d_preset_is_table_2_scaled_by_its_calibration_factors():
         for key, value in contact.model_dump().items():
             assert getattr(rebuilt.contacts[pair], key) == pytest.approx(value, rel=1e-12), (
                 pair, key)
+
+
+def test_strength_scale_scales_strengths_and_fracture_energies_squared():
+    softening = materials.load_recipe(EXAMPLE_ROCK)
+    r = scaled_recipe(softening, {"strength_scale": 0.8, "cohesion": 2.0})
+    for pair, c0 in softening.contacts.items():
+        c = r.contacts[pair]
+        assert c.tensile_strength_MPa == pytest.approx(0.8 * c0.tensile_strength_MPa)
+        assert c.cohesion_MPa == pytest.approx(1.6 * c0.cohesion_MPa)
+        assert c.tensile_fracture_energy_J_per_m2 == pytest.approx(
+            0.64 * c0.tensile_fracture_energy_J_per_m2)
+        assert c.shear_fracture_energy_J_per_m2 == pytest.approx(
+            0.64 * c0.shear_fracture_energy_J_per_m2)
+        assert c.normal_stiffness_GPa_per_m == c0.normal_stiffness_GPa_per_m
+    # Grain interiors are set relative to their like pair, so they scale with it.
+    assert r.intragranular == softening.intragranular
+
+
+def test_the_similarity_step_scales_an_evaluation_onto_the_strength_targets(monkeypatch):
+    """The root finder's budget (one evaluation) ends with UCS and BTS 20 % high and E
+    on target: strength_scale 1 / 1.2 is the exact answer for a bench whose strengths
+    follow the contact strengths, and one step finds it."""
+    monkeypatch.setattr(LabBench, "measure", _power_law_bench)
+    tensile = 6.38 / 10.85
+    cohesion = (120.94 / (85.48 * tensile ** 0.2)) ** 1.25
+    config = validate(CalibrationConfig, {
+        "seeds": [0], "tolerance": 0.01, "max_evaluations": 1,
+        "factors": {"stiffness": "youngs_modulus_GPa", "tensile_strength": "bts_MPa",
+                    "cohesion": "ucs_MPa"},
+        "start": {"stiffness": 17.13 / 16.93, "tensile_strength": 1.2 * tensile,
+                  "cohesion": 1.2 * cohesion}})
+    messages = []
+    result = calibrate(config, BASE, log=messages.append)
+    print("\n".join(messages))
+    first, step = result["history"]
+    assert first["max_error"] == pytest.approx(0.2)
+    assert step["strength_scale"] == pytest.approx(1 / 1.2)
+    assert result["converged"] and result["factors"]["strength_scale"] == step["strength_scale"]
+    for key in ("ucs_MPa", "bts_MPa", "youngs_modulus_GPa"):
+        assert abs(result["errors"][key]) < 1e-9
+    assert any("similarity step" in m for m in messages)
+
+
+def test_a_history_written_before_a_factor_existed_reads_it_as_one(tmp_path):
+    old = [k for k in calibration.HISTORY_COLUMNS if k != "strength_scale"]
+    calibration.write_csv(tmp_path / "history.csv", [dict.fromkeys(old, 2.0)], old)
+    assert calibration.read_history(tmp_path / "history.csv")[0]["strength_scale"] == 1.0
+    assert calibration.read_history(tmp_path / "history.csv")[0]["stiffness"] == 2.0
+
+
+def test_the_breakable_2d_preset_is_the_example_rock_scaled_by_its_stated_factors():
+    """strathbogie-granite-2d is what `grainfrac calibrate
+    examples/calibration/strathbogie-2d-breakable.toml` wrote: the example's breakable
+    rock with the factors its header states, on every mineral, pair and grain interior."""
+    preset = materials.load_recipe("strathbogie-granite-2d")
+    stated = {"stiffness": 1.1690, "shear_ratio": 1.5000, "grain_poisson_ratio": 0.7710,
+              "tensile_strength": 0.4200, "cohesion": 0.3327, "friction": 2.6000,
+              "fracture_energy": 1.6000, "grain_cohesion": 0.9880, "strength_scale": 0.8502}
+    rebuilt = scaled_recipe(materials.load_recipe(EXAMPLE_ROCK), stated,
+                            initial_aperture_m=preset.hydraulic.initial_aperture_m,
+                            name=preset.name)
+    assert rebuilt.intragranular.cohesion_factor == pytest.approx(
+        preset.intragranular.cohesion_factor, rel=1e-4)
+    for a, b in zip(rebuilt.minerals, preset.minerals, strict=True):
+        assert a.youngs_modulus_GPa == pytest.approx(b.youngs_modulus_GPa, rel=1e-4)
+        assert a.poisson_ratio == pytest.approx(b.poisson_ratio, rel=1e-4)
+    for pair, contact in preset.contacts.items():
+        for key, value in contact.model_dump().items():
+            assert getattr(rebuilt.contacts[pair], key) == pytest.approx(value, rel=2e-4), (
+                pair, key)
+    assert preset.hydraulic.initial_aperture_m == pytest.approx(209e-9, rel=0.01)
