@@ -73,12 +73,21 @@ In floating point the similarity is not exact: rounding changes which bond
 fails first somewhere in a specimen. Measured on the breakable-grain rock,
 seeds 0-3, 1.3 % more strength: BTS and K_IC of every specimen followed within
 0.4 %, but the UCS, read at its first 2 % fall, of seed 3 rose 15.6 % (its
-first fall came at another crack). Hence the repeat. The breakable example
-(``examples/calibration/strathbogie-2d-breakable.toml``) stalled at UCS
-+7.6 %, BTS +6.5 %, K_IC -4.8 %, E -3.9 %, nu +9.5 %; its evaluation 4 had
-UCS +14.0 %, BTS +15.2 %, K_IC +11.8 %, E -0.0 %, nu -1.2 %. Scaled by 0.8811:
-UCS +7.0 %, BTS +3.4 %, K_IC +0.4 %, E -0.8 %, nu +0.6 %; then by 0.9649:
-UCS -0.0 %, BTS +0.2 %, K_IC -2.6 %, E +1.0 %, nu -2.9 %.
+first fall came at another crack). Hence the repeat. A breakable-grain run
+at 1.6 x the example rock's G stalled at UCS +7.6 %, BTS +6.5 %, K_IC -4.8 %, E
+-3.9 %, nu +9.5 %; its evaluation 4 had UCS +14.0 %, BTS +15.2 %, K_IC
++11.8 %, E -0.0 %, nu -1.2 %. Scaled by 0.8811: UCS +7.0 %, BTS +3.4 %, K_IC
++0.4 %, E -0.8 %, nu +0.6 %; then by 0.9649: UCS -0.0 %, BTS +0.2 %, K_IC
+-2.6 %, E +1.0 %, nu -2.9 %.
+
+The fracture energy is not fixed by the lab tests. That rock (G_I 785 J/m^2
+after the steps, 7.8 x Irwin's K_IC^2 (1 - nu^2) / E) met every target, yet on the 100 mm slab
+its fractures hardly grew: its cohesive zone, E G / sigma_T^2 ~ 0.5 m, dwarfs
+the 50 mm NSCB, which then measures strength (d log K_IC / d log G = 0.08). The
+example (``examples/calibration/strathbogie-2d-breakable.toml``) starts at
+1.83 x Irwin's G from a point found by hand and converges at once; near
+Irwin's G bonds break whole before half the UCS, nu moves in steps, and the
+forward differences measure the steps (its header has the probes).
 
 A brittle start recipe (every G_I zero) that solves for ``fracture_energy``
 starts from Irwin's G_I = K_IC^2 (1 - nu^2) / E of the targets on every
