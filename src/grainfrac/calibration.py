@@ -81,11 +81,12 @@ at 1.6 x the example rock's G stalled at UCS +7.6 %, BTS +6.5 %, K_IC -4.8 %, E
 -2.6 %, E +1.0 %, nu -2.9 %.
 
 The fracture energy is not fixed by the lab tests. That rock (G_I 785 J/m^2
-after the steps, 7.8 x Irwin's K_IC^2 (1 - nu^2) / E) met every target, yet on the 100 mm slab
-its fractures hardly grew: its cohesive zone, E G / sigma_T^2 ~ 0.5 m, dwarfs
-the 50 mm NSCB, which then measures strength (d log K_IC / d log G = 0.08). The
-example (``examples/calibration/strathbogie-2d-breakable.toml``) starts at
-1.83 x Irwin's G from a point found by hand and converges at once; near
+after the steps, 7.8 x :func:`irwin_fracture_energy`) met every target, yet
+on the 100 mm slab its fractures hardly grew: its cohesive zone, E G /
+sigma_T^2 ~ 0.5 m, dwarfs the 50 mm NSCB, which then measures strength (d log
+K_IC / d log G = 0.08). The example
+(``examples/calibration/strathbogie-2d-breakable.toml``) starts at 1.83 x
+Irwin's G from a point found by hand and converges at once; near
 Irwin's G bonds break whole before half the UCS, nu moves in steps, and the
 forward differences measure the steps (its header has the probes).
 
@@ -665,14 +666,18 @@ def seed_spread(runs: list[dict[str, Any]]) -> dict[str, dict[str, float]]:
     return out
 
 
+def irwin_fracture_energy(targets: Targets) -> float:
+    """Irwin's G_I = K_IC^2 (1 - nu^2) / E of the laboratory targets (J/m^2, plane strain)."""
+    return ((targets.kic_MPa_sqrt_m * MPA) ** 2 * (1.0 - targets.poisson_ratio ** 2)
+            / (targets.youngs_modulus_GPa * GPA))
+
+
 def _with_start_fracture_energy(recipe: materials.RockRecipe, config: CalibrationConfig
                                 ) -> materials.RockRecipe:
     """A brittle recipe gets Irwin's G_I of the targets (and G_II) on every pair."""
     if any(c.tensile_fracture_energy_J_per_m2 > 0 for c in recipe.contacts.values()):
         return recipe
-    t = config.targets
-    g_tensile = ((t.kic_MPa_sqrt_m * MPA) ** 2 * (1.0 - t.poisson_ratio ** 2)
-                 / (t.youngs_modulus_GPa * GPA))
+    g_tensile = irwin_fracture_energy(config.targets)
     g_shear = config.shear_to_tensile_fracture_energy * g_tensile
     data = recipe.model_dump(mode="json")
     # Every pair explicitly: mixed pairs would otherwise average like pairs only.
