@@ -182,6 +182,29 @@ class MechanicsSolver:
                 f"max |v| = {vmax:.3g} m/s > {self.velocity_limit:g} m/s"
             )
 
+    # -- state as named arrays (checkpoints) -----------------------------------------
+    def state_arrays(self) -> dict[str, np.ndarray]:
+        """The evolving state as named arrays (live views), for checkpoints.
+
+        With :meth:`load_state_arrays` this is the whole state a checkpoint needs
+        besides ``time``, ``step_count``, ``allow_failure``, the loads and the crack
+        record; writers iterate over the names instead of listing them.
+        """
+        return {name: getattr(self, name) for name in STATE_ARRAYS}
+
+    def load_state_arrays(self, arrays: dict[str, np.ndarray]) -> None:
+        """Copy named arrays (as from :meth:`state_arrays`) into the state, in place.
+
+        Raises ``KeyError`` naming the first missing array and ``ValueError`` on a
+        shape mismatch, so a checkpoint of another model fails clearly.
+        """
+        for name, target in self.state_arrays().items():
+            value = np.asarray(arrays[name])
+            if value.shape != target.shape:
+                raise ValueError(f"state array {name!r} has shape {value.shape}, the model "
+                                 f"needs {target.shape}")
+            target[...] = value
+
     # -- state in memory (step rejection) ------------------------------------------
     def save_state(self) -> dict:
         """A copy of everything :meth:`cycle` changes, for :meth:`restore_state`."""
