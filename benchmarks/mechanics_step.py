@@ -17,17 +17,27 @@ working set (~1.3 MB; ~5 MB at 200 x 200 mm) fits in L2/L3 cache, so the
 triad (``a[i] = b[i] + s c[i]``, 24 bytes per element, arrays far larger than
 cache, one thread like the kernels) measured in the same process.
 
+With ``--compare-src DIR`` (a ``src`` folder of another checkout, e.g. the
+commit before a change) the same measurement also runs on that code, in
+subprocesses interleaved with runs of this checkout's code (best of each), and
+the two step rates are printed side by side.
+
 Usage::
 
     python benchmarks/mechanics_step.py --steps 2000 --sizes 1 4
+    python benchmarks/mechanics_step.py --compare-src /path/to/old/src
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import math
+import os
+import subprocess
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 from numba import njit
@@ -67,10 +77,10 @@ def stream_triad(n: int, repeats: int) -> float:
 def bytes_per_step(model: MechanicalModel) -> dict[str, int]:
     """Bytes read + written by one step, per kernel (no platens).
 
-    element_forces, per element: element_nodes 3 int64, dndx 3, dndy 3, area,
+    element_forces, per element: cells 3 int64, grad 3 x 2, measure,
     lam, mu (read); u gathered at 3 nodes x 2; force scattered (read + write)
     at 3 nodes x 2; stress 4 (write).
-    contact_forces, per sub-contact: contact_nodes 2 int64, normal 2, tangent 2,
+    contact_forces, per sub-contact: contact_nodes 2 int64, frame 4 (normal, tangent),
     contact_area, kn, ks, tan_phi, cohesion, tensile_strength, pressure (read),
     bonded (bool, read), tau (read + write), sigma_n (write); u and v gathered at
     2 nodes x 2; force scattered (read + write) at 2 nodes x 2. status and
@@ -79,7 +89,7 @@ def bytes_per_step(model: MechanicalModel) -> dict[str, int]:
     prescribed_velocity (read, 2 each), mass (read), fixed (2 bools, read);
     plus zeroing force at the start of the step (write, 2).
     """
-    m = len(model.element_nodes)
+    m = model.n_elements
     c = model.n_contacts
     n = model.n_nodes
     element = m * (3 * I8 + 6 * F8 + 3 * F8 + 6 * F8 + 2 * 6 * F8 + 4 * F8)
@@ -92,7 +102,7 @@ def bytes_per_step(model: MechanicalModel) -> dict[str, int]:
 def working_set(model: MechanicalModel) -> int:
     """Distinct bytes the step touches: every array once (nodes, elements, contacts)."""
     m, c, n = len(model.element_nodes), model.n_contacts, model.n_nodes
-    # element_nodes; dndx; dndy; area, lam, mu; stress
+    # cells; grad; measure, lam, mu; stress
     per_element = 3 * I8 + 3 * F8 + 3 * F8 + 3 * F8 + 4 * F8
     per_contact = 2 * I8 + 13 * F8 + B1
     per_node = 5 * 2 * F8 + F8 + 2 * B1  # u, v, force, external, prescribed; mass; fixed
@@ -122,6 +132,41 @@ def time_steps(model: MechanicalModel, loads: Loads, steps: int, repeats: int) -
     return best
 
 
+def step_rates(sizes: list[float], steps: int, repeats: int, seed: int) -> list[float]:
+    """Steps per second of the default-slab benchmark at each size (case-2 loads)."""
+    sx, sy, _ = STRESS_CASES["case2"]
+    rates = []
+    for factor in sizes:
+        _, assembly = build_slab(factor, seed)
+        model = build_mechanical_model(assembly)
+        loads = Loads.free(model.n_nodes)
+        loads.external += far_field_stress_forces(assembly.mesh, sx * MPA, sy * MPA)
+        rates.append(steps / time_steps(model, loads, steps, repeats))
+    return rates
+
+
+def compare(src: Path, sizes: list[float], steps: int, repeats: int, seed: int,
+            rounds: int = 3) -> None:
+    """Step rates of this code and of the code under ``src``, interleaved subprocesses."""
+    here = Path(__file__).resolve()
+    this_src = here.parents[1] / "src"
+    best: dict[str, list[float]] = {"this": [0.0] * len(sizes), "other": [0.0] * len(sizes)}
+    for _ in range(rounds):
+        for label, path in (("this", this_src), ("other", src)):
+            env = {**os.environ, "PYTHONPATH": str(path)}
+            out = subprocess.run(
+                [sys.executable, str(here), "--rates-only", "--steps", str(steps),
+                 "--repeats", str(repeats), "--seed", str(seed), "--sizes",
+                 *map(str, sizes)], env=env, check=True, capture_output=True, text=True)
+            rates = json.loads(out.stdout.strip().splitlines()[-1])
+            best[label] = [max(a, b) for a, b in zip(best[label], rates, strict=True)]
+    print(f"\nstep rate, this code ({this_src}) vs {src}; best of {rounds} interleaved "
+          f"subprocesses x {repeats} calls of {steps} steps")
+    print(f"{'slab':>8}{'this steps/s':>14}{'other steps/s':>15}{'ratio':>8}")
+    for factor, a, b in zip(sizes, best["this"], best["other"], strict=True):
+        print(f"{f'x{factor:g}':>8}{a:>14.0f}{b:>15.0f}{a / b:>8.3f}")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=2000, help="steps per timed call")
@@ -131,9 +176,17 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--stream-n", type=int, default=20_000_000,
                         help="STREAM triad array length (float64)")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--compare-src", type=Path, default=None,
+                        help="also time the code under this src folder (e.g. an old checkout)")
+    parser.add_argument("--rates-only", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.steps < 1 or args.repeats < 1 or any(s <= 0 for s in args.sizes):
         parser.error("--steps, --repeats and --sizes must be positive")
+    if args.rates_only:
+        print(json.dumps(step_rates(args.sizes, args.steps, args.repeats, args.seed)))
+        return 0
+    if args.compare_src is not None and not (args.compare_src / "grainfrac").is_dir():
+        parser.error(f"--compare-src {args.compare_src}: no grainfrac package there")
 
     stream = stream_triad(args.stream_n, repeats=5)
     print(f"STREAM triad (numba, 1 thread, n = {args.stream_n:.1e}, "
@@ -177,6 +230,8 @@ def main(argv: list[str] | None = None) -> int:
     ok = all(bw / stream >= TARGET for *_, bw, _, _ in rows)
     print(f"target >= {TARGET:.0%} of STREAM: {'met' if ok else 'NOT met'} "
           f"({', '.join(f'{bw / stream:.0%}' for *_, bw, _, _ in rows)})")
+    if args.compare_src is not None:
+        compare(args.compare_src, args.sizes, args.steps, args.repeats, args.seed)
     return 0
 
 

@@ -11,6 +11,7 @@ import math
 
 import numpy as np
 import pytest
+from signed_law import signed_contact_law
 
 from grainfrac.physics import kernels
 
@@ -22,7 +23,7 @@ G_I, G_II = 40.0, 400.0  # J/m2
 
 
 def _law(u_n, du_s, tau, damage, plastic_opening, bonded=True):
-    return kernels.contact_law(
+    return signed_contact_law(
         u_n, du_s, tau, KN, KS, TAN_PHI, COHESION, TENSILE, bonded, True, damage,
         plastic_opening, 2.0 * G_I / TENSILE, 2.0 * G_II / COHESION)
 
@@ -105,13 +106,13 @@ def test_a_softened_bond_unloads_elastically_and_reloads_to_its_reduced_strength
 
 def test_zero_fracture_energy_is_the_brittle_law():
     u = 1.001 * TENSILE / KN
-    brittle = kernels.contact_law(u, 0.0, 0.0, KN, KS, TAN_PHI, COHESION, TENSILE, True, True,
+    brittle = signed_contact_law(u, 0.0, 0.0, KN, KS, TAN_PHI, COHESION, TENSILE, True, True,
                                   0.0, 0.0, 0.0, 0.0)
     assert brittle[2] == kernels.TENSILE
     assert brittle[0] == 0.0
     # A softening slope steeper than kn (G_I below sigma_T^2 / 2 kn) would snap back:
     # the bond breaks at the peak as a brittle one does.
-    snap = kernels.contact_law(u, 0.0, 0.0, KN, KS, TAN_PHI, COHESION, TENSILE, True, True,
+    snap = signed_contact_law(u, 0.0, 0.0, KN, KS, TAN_PHI, COHESION, TENSILE, True, True,
                                0.0, 0.0, 0.5 * TENSILE / KN, 0.0)
     assert snap[2] == kernels.TENSILE
 
@@ -121,10 +122,10 @@ def test_a_bond_softened_in_tension_that_slips_counts_as_a_tensile_crack():
     damage, plastic = 0.5, 0.5 * u_f  # half-way down the mode-I branch
     u_n = plastic + 0.5 * TENSILE / KN  # carrying (1 - D) sigma_T of tension
     tau = 0.6 * COHESION  # beyond (1 - D) c + sigma_n tan(phi)
-    result = kernels.contact_law(u_n, 0.0, tau, KN, KS, TAN_PHI, COHESION, TENSILE, True, True,
+    result = signed_contact_law(u_n, 0.0, tau, KN, KS, TAN_PHI, COHESION, TENSILE, True, True,
                                  damage, plastic, u_f, 0.0)
     assert result[2] == kernels.TENSILE
     # The same slip on a brittle bond in tension stays a shear crack.
-    brittle = kernels.contact_law(0.5 * TENSILE / KN, 0.0, 1.1 * COHESION, KN, KS, TAN_PHI,
+    brittle = signed_contact_law(0.5 * TENSILE / KN, 0.0, 1.1 * COHESION, KN, KS, TAN_PHI,
                                   COHESION, TENSILE, True, True, 0.0, 0.0, 0.0, 0.0)
     assert brittle[2] == kernels.SHEAR

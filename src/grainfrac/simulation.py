@@ -186,7 +186,7 @@ class Run:
             pressure = s.contact_pressure[:c]
             aperture = self.coupled.aperture()
         self.snapshots.write(self.assembly, s.time, s.u[:n], s.stress[:m], s.sigma_n[:c],
-                             s.tau[:c], s.status[:c], pressure=pressure, aperture=aperture)
+                             s.tau[:c, 0], s.status[:c], pressure=pressure, aperture=aperture)
         self.state.snapshots = list(self.snapshots.entries)
 
     # -- the loop ---------------------------------------------------------------------
@@ -477,7 +477,7 @@ def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
         well_radius=outline.borehole_radius,
         connect_distance=1.5 * a.mesh.zone_size,
     ))
-    out["energy_friction_J"] = float(s.energies[2])
+    out["energy_friction_J"] = float(s.energies["friction_work"][0])
     # The mechanics' own books (J): work in (boundary, expansion, fluid), stored,
     # dissipated (damping, friction, bonds released) and the residual.
     out["energy_balance_J"] = s.energy_balance()

@@ -31,6 +31,7 @@ import shapely
 from scipy.spatial import Delaunay
 
 from grainfrac.errors import GeometryError
+from grainfrac.geometry.mesh import Mesh, contact_frame
 from grainfrac.geometry.tessellation import GrainMap
 
 # Interior lattice points closer than this fraction of the zone size to the
@@ -119,6 +120,19 @@ class GrainMesh:
         a, b, c = p[:, 0], p[:, 1], p[:, 2]
         return 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1])
                       - (c[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1]))
+
+    def record(self) -> Mesh:
+        """The dimension-generic :class:`~grainfrac.geometry.mesh.Mesh` of this mesh."""
+        return Mesh(
+            x=self.node_xy,
+            cells=self.element_nodes,
+            cell_grain=self.element_grain,
+            cell_measure=self.element_areas() * self.thickness,
+            contact_nodes=self.contact_nodes,
+            contact_area=self.contact_area,
+            contact_frame=contact_frame(self.contact_normal),
+            thickness=self.thickness,
+        )
 
     def element_min_angles(self) -> np.ndarray:
         """Smallest interior angle of each element (degrees)."""

@@ -37,15 +37,16 @@ class Platen:
 class Loads:
     """External nodal forces, fixed components and platens."""
 
-    external: np.ndarray  # (n, 2) constant nodal forces (N)
-    fixed: np.ndarray  # (n, 2) bool
-    prescribed_velocity: np.ndarray  # (n, 2)
+    external: np.ndarray  # (n, d) constant nodal forces (N)
+    fixed: np.ndarray  # (n, d) bool
+    prescribed_velocity: np.ndarray  # (n, d)
     platens: list[Platen] = field(default_factory=list)
 
     @classmethod
-    def free(cls, n_nodes: int) -> Loads:
-        return cls(np.zeros((n_nodes, 2)), np.zeros((n_nodes, 2), dtype=bool),
-                   np.zeros((n_nodes, 2)))
+    def free(cls, n_nodes: int, dimension: int = 2) -> Loads:
+        """No forces, nothing fixed, no platens."""
+        return cls(np.zeros((n_nodes, dimension)), np.zeros((n_nodes, dimension), dtype=bool),
+                   np.zeros((n_nodes, dimension)))
 
 
 def side_traction_forces(mesh: GrainMesh, side: str, traction: np.ndarray) -> np.ndarray:

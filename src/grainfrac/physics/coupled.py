@@ -21,7 +21,6 @@ from grainfrac.io.snapshots import contact_opening
 from grainfrac.loading.boundary import normal_pressure_forces
 from grainfrac.physics import flow
 from grainfrac.physics.solver import (
-    ENERGY_KEYS,
     MechanicsSolver,
     NumericalBlowUp,
     PoreSprings,
@@ -292,7 +291,7 @@ class HydroMechanicalSolver:
         s = self.state
         books = {
             "pumped": float(s.pump_work),
-            "on_grains": float(self.mechanics.energies[ENERGY_KEYS.index("fluid_work")])
+            "on_grains": float(self.mechanics.energies["fluid_work"][0])
             + s.wall_work,
             "viscous": s.viscous_work,
             "stored": flow.compression_energy(self.network, s, self.fluid),

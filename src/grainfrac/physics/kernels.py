@@ -1,16 +1,21 @@
 """Compiled kernels of the explicit grain-contact mechanics (numba, CPU).
 
-Kernels take only flat arrays and numbers, never config objects. Signs:
-tension positive in grains; in contacts the normal stress ``sigma_n`` is
-compression positive (as in the Coulomb criterion), the normal displacement
-``u_n`` is opening positive. Units SI.
+Kernels take named records (:mod:`grainfrac.physics.records`) of flat arrays and
+numbers, never config objects, and serve both dimensions: they loop over the
+dimension ``d`` and the ``d + 1`` nodes of a linear simplex (triangle in plane
+strain, tetrahedron). Signs: tension positive in grains; in contacts the normal
+stress ``sigma_n`` is compression positive (as in the Coulomb criterion), the
+normal displacement ``u_n`` is opening positive. Units SI. Stress and strain
+components follow :mod:`grainfrac.physics.elements` (Voigt order).
 
-References: small-strain constant-strain triangles (plane strain);
-3DEC Coulomb slip joint with tensile cut-off (Itasca 2022, "Joint constitutive
-models"); local non-viscous damping and central differences (Cundall 1987).
+References: small-strain constant-strain simplices; 3DEC Coulomb slip joint with
+tensile cut-off (Itasca 2022, "Joint constitutive models"); local non-viscous
+damping and central differences (Cundall 1987).
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from numba import njit
@@ -21,70 +26,128 @@ TENSILE = 1
 SHEAR = 2
 
 
-@njit(cache=True)
-def _elastic_strain(u, e, element_nodes, dndx, dndy, eigenstrain, initial_strain):
-    """Elastic strain of element ``e``: B u minus its initial strain and in-plane eigenstrain."""
-    exx = -initial_strain[e, 0] - eigenstrain[e]
-    eyy = -initial_strain[e, 1] - eigenstrain[e]
-    gxy = -initial_strain[e, 2]
-    for k in range(3):
-        n = element_nodes[e, k]
-        exx += dndx[e, k] * u[n, 0]
-        eyy += dndy[e, k] * u[n, 1]
-        gxy += dndy[e, k] * u[n, 0] + dndx[e, k] * u[n, 1]
-    return exx, eyy, gxy
+# -- elements -------------------------------------------------------------------------
+@njit(cache=True, inline="always")
+def shear_component(d, i, j):
+    """Voigt index of the shear component (i < j): 2 in 2D; yz 3, xz 4, xy 5 in 3D."""
+    return d + (d * (d - 1)) // 2 - (i + j)
 
 
 @njit(cache=True)
-def element_forces(u, element_nodes, dndx, dndy, area, lam, mu, thickness, force, stress,
-                   eigenstrain, initial_strain):
-    """Add plane-strain internal forces of linear triangles to ``force``; store stresses.
+def elastic_strain(u, elements, state, e, strain):
+    """Elastic strain of element ``e`` into ``strain`` (Voigt, engineering shear).
 
-    eps = B u - eps0 - e_x I, where ``initial_strain`` eps0 = (xx, yy, xy
-    engineering) lets a body inserted into a loaded specimen start stress-free
-    and the isotropic in-plane ``eigenstrain`` e_x drives SCDA expansion;
-    sigma = lam tr(eps) I + 2 mu eps;  f_a = -A t B_a^T sigma.
-    ``stress[e] = (sxx, syy, sxy, szz)``.
+    eps = B u - eps0 - e_x I over the model's d axes, where ``initial_strain`` eps0
+    lets a body inserted into a loaded specimen start stress-free and the isotropic
+    ``eigenstrain`` e_x drives SCDA expansion.
     """
-    for e in range(element_nodes.shape[0]):
-        exx, eyy, gxy = _elastic_strain(u, e, element_nodes, dndx, dndy, eigenstrain,
-                                        initial_strain)
-        tr = lam[e] * (exx + eyy)
-        sxx = tr + 2.0 * mu[e] * exx
-        syy = tr + 2.0 * mu[e] * eyy
-        sxy = mu[e] * gxy
-        stress[e, 0] = sxx
-        stress[e, 1] = syy
-        stress[e, 2] = sxy
-        stress[e, 3] = tr
-        at = area[e] * thickness
-        for k in range(3):
-            n = element_nodes[e, k]
-            force[n, 0] -= at * (dndx[e, k] * sxx + dndy[e, k] * sxy)
-            force[n, 1] -= at * (dndx[e, k] * sxy + dndy[e, k] * syy)
+    grad = elements.grad
+    d = grad.shape[2]
+    for i in range(d):
+        strain[i] = -state.initial_strain[e, i] - state.eigenstrain[e]
+    for s in range(d, strain.shape[0]):
+        strain[s] = -state.initial_strain[e, s]
+    for k in range(grad.shape[1]):
+        n = elements.cells[e, k]
+        for i in range(d):
+            strain[i] += grad[e, k, i] * u[n, i]
+        for i in range(d):
+            for j in range(i + 1, d):
+                s = shear_component(d, i, j)
+                strain[s] += grad[e, k, j] * u[n, i] + grad[e, k, i] * u[n, j]
 
 
 @njit(cache=True)
-def contact_law(u_n, du_s, tau_old, kn, ks, tan_phi, cohesion, tensile_strength, bonded,
+def hooke_stress(lam, mu, strain, d, stress):
+    """Isotropic stress of a strain (Voigt); in 2D also the plane-strain sigma_zz.
+
+    sigma = lam tr(eps) I + 2 mu eps. Returns ``lam tr(eps)``.
+    """
+    tr = strain[0]
+    for i in range(1, d):
+        tr += strain[i]
+    tr *= lam
+    for i in range(d):
+        stress[i] = tr + 2.0 * mu * strain[i]
+    for s in range(d, strain.shape[0]):
+        stress[s] = mu * strain[s]
+    if d == 2:
+        stress[3] = tr  # plane strain: eps_zz = 0
+    return tr
+
+
+@njit(cache=True)
+def element_forces(nodes, elements, state, force):
+    """Add internal forces of linear simplices to ``force``; store element stresses.
+
+    f_a = -V B_a^T sigma with V the cell measure (area x thickness in 2D).
+    """
+    grad = elements.grad
+    d = grad.shape[2]
+    n_strain = d * (d + 1) // 2
+    strain = np.empty(n_strain)
+    sigma = np.empty(state.stress.shape[1])
+    tensor = np.empty((d, d))
+    u = nodes.u
+    for e in range(elements.cells.shape[0]):
+        elastic_strain(u, elements, state, e, strain)
+        hooke_stress(elements.lam[e], elements.mu[e], strain, d, sigma)
+        for s in range(sigma.shape[0]):
+            state.stress[e, s] = sigma[s]
+        for i in range(d):
+            tensor[i, i] = sigma[i]
+            for j in range(i + 1, d):
+                tensor[i, j] = sigma[shear_component(d, i, j)]
+                tensor[j, i] = tensor[i, j]
+        vol = elements.measure[e]
+        for k in range(grad.shape[1]):
+            n = elements.cells[e, k]
+            for i in range(d):
+                f = grad[e, k, 0] * tensor[i, 0]
+                for j in range(1, d):
+                    f += grad[e, k, j] * tensor[i, j]
+                force[n, i] -= vol * f
+
+
+@njit(cache=True)
+def element_strain_energy(u, elements, state):
+    """Elastic strain energy stored in the elements (J)."""
+    d = elements.grad.shape[2]
+    strain = np.empty(d * (d + 1) // 2)
+    sigma = np.empty(state.stress.shape[1])
+    total = 0.0
+    for e in range(elements.cells.shape[0]):
+        elastic_strain(u, elements, state, e, strain)
+        hooke_stress(elements.lam[e], elements.mu[e], strain, d, sigma)
+        w = 0.0
+        for s in range(strain.shape[0]):
+            w += sigma[s] * strain[s]
+        total += 0.5 * w * elements.measure[e]
+    return total
+
+
+# -- contacts -------------------------------------------------------------------------
+@njit(cache=True)
+def contact_law(u_n, shear, kn, ks, tan_phi, cohesion, tensile_strength, bonded,
                 allow_failure, damage, plastic_opening, opening_to_fail, slip_to_fail):
     """Coulomb slip with tensile cut-off and linear softening for one sub-contact (Pa).
 
-    A bonded contact whose ``opening_to_fail`` / ``slip_to_fail`` is zero is
-    brittle: it breaks the step its tensile or Coulomb strength is exceeded
-    (3DEC's Coulomb slip joint). Otherwise it softens: one damage D in [0, 1)
-    scales both strengths by (1 - D) and grows with the inelastic opening and
-    slip, dD = du_p / opening_to_fail + ds_p / slip_to_fail. With
-    ``opening_to_fail = 2 G_I / sigma_T`` the work of a pure opening to failure
-    is the mode-I fracture energy G_I, and ``slip_to_fail = 2 G_II / c`` gives
-    G_II in pure shear. The inelastic opening u_p stays in the bond
+    The law sees the magnitude |tau| of the shear stress vector (d - 1 components);
+    the caller keeps its direction. A bonded contact whose ``opening_to_fail`` /
+    ``slip_to_fail`` is zero is brittle: it breaks the step its tensile or Coulomb
+    strength is exceeded (3DEC's Coulomb slip joint). Otherwise it softens: one
+    damage D in [0, 1) scales both strengths by (1 - D) and grows with the
+    inelastic opening and slip, dD = du_p / opening_to_fail + ds_p / slip_to_fail.
+    With ``opening_to_fail = 2 G_I / sigma_T`` the work of a pure opening to
+    failure is the mode-I fracture energy G_I, and ``slip_to_fail = 2 G_II / c``
+    gives G_II in pure shear. The inelastic opening u_p stays in the bond
     (sigma_n = -kn (u_n - u_p)); at D = 1 the bond breaks. A softened bond that
     fails in shear while in tension is counted a tensile crack.
 
     Parameters
     ----------
     u_n : opening displacement (m), positive when the faces separate.
-    du_s : shear displacement increment of this step (m).
-    tau_old : shear stress of the previous step (Pa).
+    shear : magnitude of the trial shear stress, |tau_old + ks du_s| (Pa).
     kn, ks : normal and shear stiffness (Pa/m).
     tan_phi, cohesion, tensile_strength : strength (residual friction kept after failure).
     bonded : whether the bond is intact.
@@ -94,15 +157,15 @@ def contact_law(u_n, du_s, tau_old, kn, ks, tan_phi, cohesion, tensile_strength,
 
     Returns
     -------
-    sigma_n, tau, new_status, slip_work_density, released_energy_density,
+    sigma_n, shear, new_status, slip_work_density, released_energy_density,
     softening_work_density, damage, plastic_opening
-        ``sigma_n`` compression positive; ``new_status`` is INTACT if nothing
-        broke this call, else TENSILE or SHEAR; energies per unit area (J/m2):
-        friction work, elastic energy released at the break, and work dissipated
-        by softening this call.
+        ``sigma_n`` compression positive; ``shear`` the new magnitude |tau|;
+        ``new_status`` is INTACT if nothing broke this call, else TENSILE or SHEAR;
+        energies per unit area (J/m2): friction work, elastic energy released at
+        the break, and work dissipated by softening this call.
     """
     sigma_n = -kn * (u_n - plastic_opening) if bonded else -kn * u_n
-    tau = tau_old + ks * du_s
+    tau = shear
     status = INTACT
     slip_work = 0.0
     softening_work = 0.0
@@ -125,10 +188,10 @@ def contact_law(u_n, du_s, tau_old, kn, ks, tan_phi, cohesion, tensile_strength,
                     sigma_n = -t_new
         if status == INTACT:
             limit = (1.0 - damage) * cohesion + sigma_n * tan_phi
-            if abs(tau) > limit:
+            if tau > limit:
                 status = SHEAR
                 if slip_to_fail > 0.0 and ks * slip_to_fail > cohesion and limit > 0.0:
-                    ds = (abs(tau) - limit) / (ks - cohesion / slip_to_fail)
+                    ds = (tau - limit) / (ks - cohesion / slip_to_fail)
                     d_new = damage + ds / slip_to_fail
                     if d_new < 1.0:
                         status = INTACT
@@ -139,7 +202,7 @@ def contact_law(u_n, du_s, tau_old, kn, ks, tan_phi, cohesion, tensile_strength,
                             work -= slip_work
                         softening_work += work
                         damage = d_new
-                        tau = new_limit if tau > 0.0 else -new_limit
+                        tau = new_limit
                 # A bond softened by opening loses its cohesion too; its last
                 # shear slip under tension ends a mode-I crack.
                 if status == SHEAR and damage > 0.0 and sigma_n < 0.0:
@@ -159,9 +222,9 @@ def contact_law(u_n, du_s, tau_old, kn, ks, tan_phi, cohesion, tensile_strength,
         tau = 0.0
     else:
         limit = sigma_n * tan_phi
-        if abs(tau) > limit:
-            excess = abs(tau) - limit
-            tau = limit if tau > 0.0 else -limit
+        if tau > limit:
+            excess = tau - limit
+            tau = limit
             if not bonded:
                 slip_work = limit * excess / ks
     released = 0.0
@@ -171,249 +234,241 @@ def contact_law(u_n, du_s, tau_old, kn, ks, tan_phi, cohesion, tensile_strength,
     return sigma_n, tau, status, slip_work, released, softening_work, damage, plastic_opening
 
 
+@njit(cache=True, inline="always")
+def relative_normal(w, a, b, frame, c):
+    """(w_b - w_a) . n of contact ``c`` for a nodal field ``w`` (displacement, velocity)."""
+    r = (w[b, 0] - w[a, 0]) * frame[c, 0, 0]
+    for i in range(1, w.shape[1]):
+        r += (w[b, i] - w[a, i]) * frame[c, 0, i]
+    return r
+
+
 @njit(cache=True)
-def contact_forces(
-    u, v, dt, contact_nodes, normal, tangent, contact_area,
-    kn, ks, tan_phi, cohesion, tensile_strength, opening_to_fail, slip_to_fail,
-    bonded, status, sigma_n, tau, damage, plastic_opening, pressure_on_contact,
-    released, force, failed_now, allow_failure, opening_offset,
-):
-    """Add contact spring forces and fluid pressure forces to ``force``.
+def contact_forces(nodes, contacts, state, dt, allow_failure, failed_now):
+    """Add contact spring forces and fluid pressure forces to ``nodes.force``.
 
     Relative displacement of the second node with respect to the first:
-    opening ``u_n = (u_b - u_a).n - offset``; shear increment ``(v_b - v_a).t dt``.
-    ``opening_offset`` is the opening at which a contact was created (zero for
-    grain boundaries; the wall misfit for an SCDA plug inserted after loading).
-    A fluid pressure ``p`` pushes the two faces apart (force ``p A`` on each).
-    Returns the frictional work of this step (J), the number of contacts that
-    broke, the work of the fluid pressure on the faces (J, p A du_n) and the
-    bond energy of this step (J: dissipated by softening and released at
-    breaks), which is also added per contact to ``released``.
+    opening ``u_n = (u_b - u_a).n - offset``; shear increment along each tangent
+    ``t_k``: ``(v_b - v_a).t_k dt``. ``opening_offset`` is the opening at which a
+    contact was created (zero for grain boundaries; the wall misfit for an SCDA
+    plug inserted after loading). The trial shear vector ``tau + ks du_s`` goes to
+    :func:`contact_law` as its magnitude; where the law changes the magnitude the
+    vector keeps its direction. A fluid pressure ``p`` pushes the two faces apart
+    (force ``p A`` on each). Returns the frictional work of this step (J), the
+    number of contacts that broke, the work of the fluid pressure on the faces
+    (J, p A du_n) and the bond energy of this step (J: dissipated by softening and
+    released at breaks), which is also added per contact to ``released``.
     """
+    u, v, force = nodes.u, nodes.v, nodes.force
+    frame = contacts.frame
+    d = u.shape[1]
+    n_tangents = d - 1
+    trial = np.empty(n_tangents)
     friction_work = 0.0
     fluid_work = 0.0
     bond_work = 0.0
     n_failed = 0
-    for c in range(contact_nodes.shape[0]):
-        a = contact_nodes[c, 0]
-        b = contact_nodes[c, 1]
-        nx = normal[c, 0]
-        ny = normal[c, 1]
-        tx = tangent[c, 0]
-        ty = tangent[c, 1]
-        u_n = (u[b, 0] - u[a, 0]) * nx + (u[b, 1] - u[a, 1]) * ny - opening_offset[c]
-        du_s = ((v[b, 0] - v[a, 0]) * tx + (v[b, 1] - v[a, 1]) * ty) * dt
-        du_n = ((v[b, 0] - v[a, 0]) * nx + (v[b, 1] - v[a, 1]) * ny) * dt
-        fluid_work += pressure_on_contact[c] * contact_area[c] * du_n
-        sn, ts, new_status, w_slip, e_rel, w_soft, d_c, up_c = contact_law(
-            u_n, du_s, tau[c], kn[c], ks[c], tan_phi[c], cohesion[c],
-            tensile_strength[c], bonded[c], allow_failure, damage[c], plastic_opening[c],
-            opening_to_fail[c], slip_to_fail[c],
+    for c in range(contacts.nodes.shape[0]):
+        a = contacts.nodes[c, 0]
+        b = contacts.nodes[c, 1]
+        u_n = relative_normal(u, a, b, frame, c) - state.opening_offset[c]
+        du_n = relative_normal(v, a, b, frame, c) * dt
+        ks = contacts.ks[c]
+        for t in range(n_tangents):
+            dv = (v[b, 0] - v[a, 0]) * frame[c, 1 + t, 0]
+            for i in range(1, d):
+                dv += (v[b, i] - v[a, i]) * frame[c, 1 + t, i]
+            trial[t] = state.tau[c, t] + ks * (dv * dt)
+        if n_tangents == 1:
+            magnitude = abs(trial[0])
+        else:
+            sq = 0.0
+            for t in range(n_tangents):
+                sq += trial[t] * trial[t]
+            magnitude = math.sqrt(sq)
+        pressure = state.pressure[c]
+        area = contacts.area[c]
+        fluid_work += pressure * area * du_n
+        sn, shear, new_status, w_slip, e_rel, w_soft, d_c, up_c = contact_law(
+            u_n, magnitude, contacts.kn[c], ks, contacts.tan_phi[c], contacts.cohesion[c],
+            contacts.tensile_strength[c], state.bonded[c], allow_failure, state.damage[c],
+            state.plastic_opening[c], contacts.opening_to_fail[c], contacts.slip_to_fail[c],
         )
-        damage[c] = d_c
-        plastic_opening[c] = up_c
+        if shear != magnitude:
+            # Keep the direction: the unit vector first, so in 2D tau = +-shear exactly.
+            for t in range(n_tangents):
+                trial[t] = shear * (trial[t] / magnitude) if shear != 0.0 else 0.0
+        state.damage[c] = d_c
+        state.plastic_opening[c] = up_c
         # A bond's energy: what softening dissipated, plus what its break released.
-        bond = (w_soft + e_rel) * contact_area[c]
-        released[c] += bond
+        bond = (w_soft + e_rel) * area
+        state.released[c] += bond
         bond_work += bond
         if new_status != INTACT:
-            bonded[c] = False
-            status[c] = new_status
+            state.bonded[c] = False
+            state.status[c] = new_status
             failed_now[n_failed] = c
             n_failed += 1
-        sigma_n[c] = sn
-        tau[c] = ts
-        friction_work += w_slip * contact_area[c]
+        state.sigma_n[c] = sn
+        for t in range(n_tangents):
+            state.tau[c, t] = trial[t]
+        friction_work += w_slip * area
         # Traction on face b (first grain pushes b along +n when compressed).
-        fn = (sn + pressure_on_contact[c]) * contact_area[c]
-        fs = ts * contact_area[c]
-        fx = fn * nx - fs * tx
-        fy = fn * ny - fs * ty
-        force[b, 0] += fx
-        force[b, 1] += fy
-        force[a, 0] -= fx
-        force[a, 1] -= fy
+        fn = (sn + pressure) * area
+        for i in range(d):
+            f = fn * frame[c, 0, i]
+            for t in range(n_tangents):
+                f -= (trial[t] * area) * frame[c, 1 + t, i]
+            force[b, i] += f
+            force[a, i] -= f
     return friction_work, n_failed, fluid_work, bond_work
 
 
+def contact_strain_energy(sigma_n, tau, kn, ks, area) -> float:
+    """Elastic energy stored in the contact springs (J); ``tau`` is ``(c, d - 1)``."""
+    return float(np.sum(0.5 * area * (sigma_n**2 / kn + np.sum(tau**2, axis=1) / ks)))
+
+
 @njit(cache=True)
-def update_nodes(u, v, force, external, mass, dt, alpha, fixed, prescribed_velocity):
+def pore_spring_pressure(u, contacts, pores, pressure):
+    """Set the fluid pressure of the listed pores from their current void.
+
+    Pore ``k``'s void is ``V = sum A max(a0 + u_n, lower)`` over its
+    sub-contacts ``pores.contact`` (``initial_aperture`` = a0); its pressure is
+    ``max(0, (held_void[k] - V) / storage[k])``, at most ``ceiling[k]``: a spring
+    of compliance ``storage`` about the void its fluid fills at zero pressure.
+    """
+    pores.void[:] = 0.0
+    for j in range(pores.contact.shape[0]):
+        c = pores.contact[j]
+        u_n = relative_normal(u, contacts.nodes[c, 0], contacts.nodes[c, 1], contacts.frame, c)
+        aperture = max(pores.initial_aperture + u_n, pores.lower[j])
+        pores.void[pores.pore[j]] += contacts.area[c] * aperture
+    for j in range(pores.contact.shape[0]):
+        k = pores.pore[j]
+        pressure[pores.contact[j]] = min(max(
+            (pores.held_void[k] - pores.void[k]) / pores.storage[k], 0.0), pores.ceiling[k])
+
+
+# -- nodes and platens ------------------------------------------------------------------
+@njit(cache=True)
+def update_nodes(nodes, loads, dt, alpha):
     """Local non-viscous damping and a central-difference step.
 
     F_d = -alpha |F| sign(v);  v += dt (F + F_d) / m;  u += dt v.
-    ``fixed[n, d]`` holds a component at ``prescribed_velocity[n, d]``.
+    ``fixed[n, i]`` holds a component at ``prescribed_velocity[n, i]``.
     Returns (boundary work of external forces and supports, damping work,
     sum |unbalanced force| over free components, max |v| (inf if NaN)) of this step.
     """
+    u, v, force = nodes.u, nodes.v, nodes.force
+    external, fixed, mass = loads.external, loads.fixed, loads.mass
     w_ext = 0.0
     w_damp = 0.0
     unbalanced = 0.0
     vmax = 0.0
     for n in range(u.shape[0]):
-        for d in range(2):
-            f = force[n, d] + external[n, d]
-            if fixed[n, d]:
-                v[n, d] = prescribed_velocity[n, d]
+        for i in range(u.shape[1]):
+            f = force[n, i] + external[n, i]
+            if fixed[n, i]:
+                v[n, i] = loads.prescribed_velocity[n, i]
                 # The support's reaction balances f and works on the prescribed motion.
-                w_ext -= f * v[n, d] * dt
+                w_ext -= f * v[n, i] * dt
             else:
                 unbalanced += abs(f)
-                vn = v[n, d]
+                vn = v[n, i]
                 # branch-free sign: (vn > 0) - (vn < 0)
                 fd = -alpha * abs(f) * ((vn > 0.0) - (vn < 0.0))
-                v[n, d] = vn + dt * (f + fd) / mass[n]
-                w_damp -= fd * v[n, d] * dt
-            w_ext += external[n, d] * v[n, d] * dt
-            u[n, d] += dt * v[n, d]
+                v[n, i] = vn + dt * (f + fd) / mass[n]
+                w_damp -= fd * v[n, i] * dt
+            w_ext += external[n, i] * v[n, i] * dt
+            u[n, i] += dt * v[n, i]
             # not (|v| <= vmax) is also true for NaN
-            if not abs(v[n, d]) <= vmax:
-                vmax = abs(v[n, d]) if abs(v[n, d]) == abs(v[n, d]) else np.inf
+            if not abs(v[n, i]) <= vmax:
+                vmax = abs(v[n, i]) if abs(v[n, i]) == abs(v[n, i]) else np.inf
     return w_ext, w_damp, unbalanced, vmax
 
 
 @njit(cache=True)
-def platen_forces(u, node_xy, nodes, axis, side, position, stiffness, force, node_force):
-    """Frictionless rigid platen: penalty force on nodes that pass its plane.
+def platen_forces(u, platens, p, force):
+    """Frictionless rigid platen ``p``: penalty force on nodes that pass its plane.
 
     ``side = +1`` for a platen above the specimen (pushes down), ``-1`` below.
     Stores each node's force in ``node_force`` and returns the total force the
     platen exerts on the specimen along ``axis``.
     """
+    axis = platens.axis[p]
+    side = platens.side[p]
+    position = platens.position[p]
     total = 0.0
-    for i in range(nodes.shape[0]):
-        n = nodes[i]
-        x = node_xy[n, axis] + u[n, axis]
+    for i in range(platens.offsets[p], platens.offsets[p + 1]):
+        n = platens.nodes[i]
+        x = platens.x[n, axis] + u[n, axis]
         pen = (x - position) * side
-        f = -side * stiffness[i] * pen if pen > 0.0 else 0.0
+        f = -side * platens.stiffness[i] * pen if pen > 0.0 else 0.0
         force[n, axis] += f
-        node_force[i] = f
+        platens.node_force[i] = f
         total += f
     return total
 
 
+# -- the explicit loop ---------------------------------------------------------------------
 @njit(cache=True)
-def element_strain_energy(u, element_nodes, dndx, dndy, area, lam, mu, thickness,
-                          eigenstrain, initial_strain):
-    """Elastic strain energy stored in the elements (J)."""
-    total = 0.0
-    for e in range(element_nodes.shape[0]):
-        exx, eyy, gxy = _elastic_strain(u, e, element_nodes, dndx, dndy, eigenstrain,
-                                        initial_strain)
-        tr = lam[e] * (exx + eyy)
-        w = 0.5 * ((tr + 2.0 * mu[e] * exx) * exx + (tr + 2.0 * mu[e] * eyy) * eyy
-                   + mu[e] * gxy * gxy)
-        total += w * area[e] * thickness
-    return total
+def run_steps(control, nodes, loads, elements, element_state, contacts, contact_state,
+              platens, pores, energies, cracks):
+    """Advance ``control.n_steps`` explicit steps without returning to Python.
 
-
-def contact_strain_energy(sigma_n, tau, kn, ks, area) -> float:
-    """Elastic energy stored in the contact springs (J)."""
-    return float(np.sum(0.5 * area * (sigma_n**2 / kn + tau**2 / ks)))
-
-
-@njit(cache=True)
-def pore_spring_pressure(u, contact_nodes, normal, contact_area, pore_contact, contact_pore,
-                         pore_contact_lower, initial_aperture, pore_held_void, pore_storage,
-                         pore_ceiling, pore_void, pressure_on_contact):
-    """Set the fluid pressure of the listed pores from their current void.
-
-    Pore ``k``'s void is ``V = sum A max(a0 + u_n, lower)`` over its
-    sub-contacts ``pore_contact`` (``initial_aperture`` = a0); its
-    pressure is ``max(0, (pore_held_void[k] - V) / pore_storage[k])``, at most
-    ``pore_ceiling[k]``: a spring of compliance ``pore_storage`` about the void
-    its fluid fills at zero pressure. ``pore_void`` is workspace.
+    ``energies`` (a record of :data:`grainfrac.physics.records.ENERGY_DTYPE`)
+    accumulates the work books; ``energy_removed`` is not touched here. The
+    eigenstrain grows by ``eigenstrain_rate dt`` per step; the work it does on the
+    body is ``-V tr(sigma) d(eigenstrain)`` over the model's axes. Broken contacts
+    are appended to ``cracks`` (step index within this call). Returns (number of
+    cracks appended, steps done). The loop stops early, after the offending step,
+    when any velocity exceeds ``velocity_limit`` or is not finite: a blow-up is
+    caught where it starts. The pores listed by ``pores`` (the free pores during
+    injection, else none) have a fluid pressure that follows their void at every
+    step (:func:`pore_spring_pressure`).
     """
-    pore_void[:] = 0.0
-    for j in range(pore_contact.shape[0]):
-        c = pore_contact[j]
-        a = contact_nodes[c, 0]
-        b = contact_nodes[c, 1]
-        u_n = (u[b, 0] - u[a, 0]) * normal[c, 0] + (u[b, 1] - u[a, 1]) * normal[c, 1]
-        aperture = max(initial_aperture + u_n, pore_contact_lower[j])
-        pore_void[contact_pore[j]] += contact_area[c] * aperture
-    for j in range(pore_contact.shape[0]):
-        k = contact_pore[j]
-        pressure_on_contact[pore_contact[j]] = min(max(
-            (pore_held_void[k] - pore_void[k]) / pore_storage[k], 0.0), pore_ceiling[k])
-
-
-@njit(cache=True)
-def run_steps(
-    n_steps, dt, alpha, u, v, force, stress, external, mass, fixed, prescribed_velocity,
-    element_nodes, dndx, dndy, area, lam, mu, thickness,
-    contact_nodes, normal, tangent, contact_area, kn, ks, tan_phi, cohesion,
-    tensile_strength, opening_to_fail, slip_to_fail, bonded, status, sigma_n, tau, damage,
-    plastic_opening, pressure_on_contact, released,
-    platen_node_xy, platen_nodes, platen_offsets, platen_axis, platen_side,
-    platen_position, platen_velocity, platen_stiffness, platen_reaction, platen_node_force,
-    failed_contact, failed_step, energies, allow_failure, velocity_limit,
-    eigenstrain, eigenstrain_rate, initial_strain, opening_offset,
-    pore_contact, contact_pore, pore_contact_lower, initial_aperture, pore_held_void,
-    pore_storage, pore_ceiling, pore_void,
-):
-    """Advance ``n_steps`` explicit steps without returning to Python.
-
-    ``energies`` accumulates [external work, damping work, friction work,
-    bond energy (released at breaks and dissipated by softening), platen work,
-    expansion work, fluid work, energy removed (not touched here)]. The eigenstrain grows
-    by ``eigenstrain_rate dt`` per step; the work it does on the body is
-    ``-A t (sxx + syy) d(eigenstrain)``. Broken contacts are appended to
-    ``failed_contact`` / ``failed_step`` (step index within this call).
-    Returns (number of cracks appended, steps done). The loop stops early,
-    after the offending step, when any velocity exceeds ``velocity_limit`` or
-    is not finite: a blow-up is caught where it starts. The pores listed by
-    ``pore_contact`` (the free pores during injection, else none) have a fluid
-    pressure that follows their void at every step (:func:`pore_spring_pressure`).
-    """
+    dt = control.dt
+    d = nodes.u.shape[1]
+    book = energies[0]
     n_failed_total = 0
-    failed_now = np.empty(contact_nodes.shape[0], dtype=np.int64)
-    expanding = np.flatnonzero(eigenstrain_rate)
-    for step in range(n_steps):
+    failed_now = np.empty(contacts.nodes.shape[0], dtype=np.int64)
+    rate = element_state.eigenstrain_rate
+    expanding = np.flatnonzero(rate)
+    for step in range(control.n_steps):
         for i in range(expanding.shape[0]):
             e = expanding[i]
-            eigenstrain[e] += eigenstrain_rate[e] * dt
-        force[:, :] = 0.0
-        element_forces(u, element_nodes, dndx, dndy, area, lam, mu, thickness, force, stress,
-                       eigenstrain, initial_strain)
+            element_state.eigenstrain[e] += rate[e] * dt
+        nodes.force[:, :] = 0.0
+        element_forces(nodes, elements, element_state, nodes.force)
+        stress = element_state.stress
         for i in range(expanding.shape[0]):
             e = expanding[i]
-            energies[5] -= (area[e] * thickness * (stress[e, 0] + stress[e, 1])
-                            * eigenstrain_rate[e] * dt)
-        if pore_contact.shape[0] > 0:
-            pore_spring_pressure(u, contact_nodes, normal, contact_area, pore_contact,
-                                 contact_pore, pore_contact_lower, initial_aperture,
-                                 pore_held_void, pore_storage, pore_ceiling, pore_void,
-                                 pressure_on_contact)
+            trace = stress[e, 0]
+            for k in range(1, d):
+                trace += stress[e, k]
+            book.expansion_work -= elements.measure[e] * trace * rate[e] * dt
+        if pores.contact.shape[0] > 0:
+            pore_spring_pressure(nodes.u, contacts, pores, contact_state.pressure)
         w_fric, n_failed, w_fluid, w_bond = contact_forces(
-            u, v, dt, contact_nodes, normal, tangent, contact_area, kn, ks, tan_phi, cohesion,
-            tensile_strength, opening_to_fail, slip_to_fail, bonded, status, sigma_n, tau,
-            damage, plastic_opening, pressure_on_contact, released, force, failed_now,
-            allow_failure, opening_offset,
-        )
+            nodes, contacts, contact_state, dt, control.allow_failure, failed_now)
         for i in range(n_failed):
-            c = failed_now[i]
-            failed_contact[n_failed_total] = c
-            failed_step[n_failed_total] = step
+            cracks.contact[n_failed_total] = failed_now[i]
+            cracks.step[n_failed_total] = step
             n_failed_total += 1
-        energies[2] += w_fric
-        energies[3] += w_bond
-        energies[6] += w_fluid
-        for p in range(platen_axis.shape[0]):
-            lo = platen_offsets[p]
-            hi = platen_offsets[p + 1]
-            platen_position[p] += platen_velocity[p] * dt
-            platen_reaction[p] = platen_forces(
-                u, platen_node_xy, platen_nodes[lo:hi], platen_axis[p], platen_side[p],
-                platen_position[p], platen_stiffness[lo:hi], force, platen_node_force[lo:hi],
-            )
-        w_ext, w_damp, _, vmax = update_nodes(u, v, force, external, mass, dt, alpha, fixed,
-                                              prescribed_velocity)
-        for p in range(platen_axis.shape[0]):
-            ax = platen_axis[p]
-            for i in range(platen_offsets[p], platen_offsets[p + 1]):
-                energies[4] += platen_node_force[i] * v[platen_nodes[i], ax] * dt
-        energies[0] += w_ext
-        energies[1] += w_damp
-        if vmax > velocity_limit:
+        book.friction_work += w_fric
+        book.bond_energy_released += w_bond
+        book.fluid_work += w_fluid
+        for p in range(platens.axis.shape[0]):
+            platens.position[p] += platens.velocity[p] * dt
+            platens.reaction[p] = platen_forces(nodes.u, platens, p, nodes.force)
+        w_ext, w_damp, _, vmax = update_nodes(nodes, loads, dt, control.damping)
+        for p in range(platens.axis.shape[0]):
+            ax = platens.axis[p]
+            for i in range(platens.offsets[p], platens.offsets[p + 1]):
+                book.platen_work += platens.node_force[i] * nodes.v[platens.nodes[i], ax] * dt
+        book.boundary_work += w_ext
+        book.damping_work += w_damp
+        if vmax > control.velocity_limit:
             return n_failed_total, step + 1
-    return n_failed_total, n_steps
+    return n_failed_total, control.n_steps

@@ -15,10 +15,15 @@ depend on masses; stages that need true dynamics can turn it off.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
 from grainfrac.assembly import GrainAssembly
+from grainfrac.geometry.mesh import Mesh
+from grainfrac.physics import elements as element_layer
+from grainfrac.physics.elements import element_row_sums, lame_parameters
+from grainfrac.physics.records import Contacts, Elements
 
 # 95 % of the nodes keep their real mass as far as the grains are concerned; the
 # stiffest 5 % (the smallest zones) are scaled. Measured on the default slab: dt
@@ -28,19 +33,24 @@ MASS_SCALING_QUANTILE = 0.05
 
 @dataclass(frozen=True)
 class MechanicalModel:
-    """Arrays the mechanics kernels need, SI units."""
+    """Arrays the mechanics kernels need, SI units, for either dimension ``d``.
 
-    node_xy: np.ndarray
-    element_nodes: np.ndarray
-    dndx: np.ndarray  # (m, 3)
-    dndy: np.ndarray  # (m, 3)
-    element_area: np.ndarray
-    lam: np.ndarray  # plane-strain Lame lambda per element
+    Cells are linear simplices (``cells[m, d+1]``: triangles in plane strain of
+    ``thickness``, or tetrahedra); ``cell_measure`` is area x thickness in 2D and
+    the volume in 3D. Sub-contacts carry an orthonormal frame ``[c, d, d]``: the
+    unit normal from the first node's grain to the second's, then d - 1 tangents.
+    """
+
+    x: np.ndarray  # (n, d) reference node positions
+    cells: np.ndarray  # (m, d + 1)
+    grad: np.ndarray  # (m, d + 1, d) shape-function gradients
+    cell_size: np.ndarray  # (m,) area (2D) or volume (3D)
+    cell_measure: np.ndarray  # (m,) area x thickness (2D) or volume (3D), m3
+    lam: np.ndarray  # Lame lambda per element (plane strain in 2D)
     mu: np.ndarray
-    thickness: float
+    thickness: float  # plane-strain slice (2D); 1.0 in 3D
     contact_nodes: np.ndarray
-    contact_normal: np.ndarray
-    contact_tangent: np.ndarray
+    contact_frame: np.ndarray  # (c, d, d): normal, tangents
     contact_area: np.ndarray
     normal_stiffness: np.ndarray  # kn (Pa/m)
     shear_stiffness: np.ndarray
@@ -60,23 +70,63 @@ class MechanicalModel:
     safety: float
 
     @property
+    def dimension(self) -> int:
+        return self.x.shape[1]
+
+    @property
     def n_nodes(self) -> int:
-        return len(self.node_xy)
+        return len(self.x)
+
+    @property
+    def n_elements(self) -> int:
+        return len(self.cells)
 
     @property
     def n_contacts(self) -> int:
         return len(self.contact_nodes)
 
+    @cached_property
+    def elements(self) -> Elements:
+        """The cells as the kernels' record."""
+        return Elements(self.cells, self.grad, self.cell_measure, self.lam, self.mu)
 
-def shape_gradients(node_xy: np.ndarray, element_nodes: np.ndarray):
-    """Gradients of the linear shape functions and areas of triangles."""
-    p = node_xy[element_nodes]
-    x, y = p[..., 0], p[..., 1]
-    two_a = (x[:, 1] - x[:, 0]) * (y[:, 2] - y[:, 0]) - (x[:, 2] - x[:, 0]) * (y[:, 1] - y[:, 0])
-    inv = 1.0 / two_a[:, None]
-    dndx = np.column_stack((y[:, 1] - y[:, 2], y[:, 2] - y[:, 0], y[:, 0] - y[:, 1])) * inv
-    dndy = np.column_stack((x[:, 2] - x[:, 1], x[:, 0] - x[:, 2], x[:, 1] - x[:, 0])) * inv
-    return dndx, dndy, 0.5 * two_a
+    @cached_property
+    def contacts(self) -> Contacts:
+        """The sub-contacts as the kernels' record."""
+        return Contacts(self.contact_nodes, self.contact_frame, self.contact_area,
+                        self.normal_stiffness, self.shear_stiffness, self.tan_friction,
+                        self.cohesion, self.tensile_strength, self.opening_to_fail,
+                        self.slip_to_fail)
+
+    # 2D names the plane-strain code and its figures use.
+    @property
+    def node_xy(self) -> np.ndarray:
+        return self.x
+
+    @property
+    def element_nodes(self) -> np.ndarray:
+        return self.cells
+
+    @property
+    def element_area(self) -> np.ndarray:
+        return self.cell_size
+
+    @property
+    def dndx(self) -> np.ndarray:
+        return self.grad[:, :, 0]
+
+    @property
+    def dndy(self) -> np.ndarray:
+        return self.grad[:, :, 1]
+
+    @property
+    def contact_normal(self) -> np.ndarray:
+        return self.contact_frame[:, 0]
+
+    @property
+    def contact_tangent(self) -> np.ndarray:
+        """The first tangent (the only one in 2D)."""
+        return self.contact_frame[:, 1]
 
 
 def _displacement_to_fail(fracture_energy: np.ndarray, strength: np.ndarray) -> np.ndarray:
@@ -85,40 +135,19 @@ def _displacement_to_fail(fracture_energy: np.ndarray, strength: np.ndarray) -> 
     return np.where((fracture_energy > 0) & (strength > 0), 2.0 * fracture_energy / safe, 0.0)
 
 
-def lame_parameters(youngs_modulus: np.ndarray, poisson_ratio: np.ndarray):
-    """Lame lambda and mu from E and nu."""
-    lam = youngs_modulus * poisson_ratio / ((1 + poisson_ratio) * (1 - 2 * poisson_ratio))
-    mu = youngs_modulus / (2 * (1 + poisson_ratio))
-    return lam, mu
-
-
-def _element_row_sums(dndx, dndy, area, lam, mu, thickness) -> np.ndarray:
-    """Absolute row sums of each element stiffness matrix, per (element, node, dof)."""
-    m = len(area)
-    b = np.zeros((m, 3, 6))
-    b[:, 0, 0::2] = dndx
-    b[:, 1, 1::2] = dndy
-    b[:, 2, 0::2] = dndy
-    b[:, 2, 1::2] = dndx
-    d = np.zeros((m, 3, 3))
-    d[:, 0, 0] = d[:, 1, 1] = lam + 2 * mu
-    d[:, 0, 1] = d[:, 1, 0] = lam
-    d[:, 2, 2] = mu
-    ke = np.einsum("mia,mij,mjb->mab", b, d, b) * (area * thickness)[:, None, None]
-    return np.abs(ke).sum(axis=2).reshape(m, 3, 2)
-
-
 def nodal_stiffness_bound(
-    node_count, element_nodes, dndx, dndy, area, lam, mu, thickness,
-    contact_nodes, normal, tangent, contact_area, kn, ks,
+    node_count, cells, grad, measure, lam, mu, contact_nodes, frame, contact_area, kn, ks,
 ) -> np.ndarray:
-    """Gershgorin bound of each node's stiffness row (N/m): largest over its two dofs."""
-    k = np.zeros((node_count, 2))
-    rows = _element_row_sums(dndx, dndy, area, lam, mu, thickness)
-    np.add.at(k, element_nodes, rows)
-    kmat = (kn * contact_area)[:, None, None] * np.einsum("ci,cj->cij", normal, normal) + (
-        ks * contact_area
-    )[:, None, None] * np.einsum("ci,cj->cij", tangent, tangent)
+    """Gershgorin bound of each node's stiffness row (N/m): largest over its dofs."""
+    d = grad.shape[2]
+    k = np.zeros((node_count, d))
+    np.add.at(k, cells, element_row_sums(grad, measure, lam, mu))
+    normal = frame[:, 0]
+    kmat = (kn * contact_area)[:, None, None] * np.einsum("ci,cj->cij", normal, normal)
+    for t in range(1, d):
+        tangent = frame[:, t]
+        kmat = kmat + (ks * contact_area)[:, None, None] * np.einsum("ci,cj->cij", tangent,
+                                                                     tangent)
     row = 2.0 * np.abs(kmat).sum(axis=2)  # the pair matrix is [[K, -K], [-K, K]]
     np.add.at(k, contact_nodes[:, 0], row)
     np.add.at(k, contact_nodes[:, 1], row)
@@ -139,17 +168,16 @@ def build_mechanical_model(
     safety
         Fraction of the critical time step used.
     """
-    mesh = assembly.mesh
+    mesh: Mesh = assembly.mesh.record()
     return model_from_arrays(
-        node_xy=mesh.node_xy,
-        element_nodes=mesh.element_nodes,
+        x=mesh.x,
+        cells=mesh.cells,
         youngs_modulus=assembly.element_youngs_modulus,
         poisson_ratio=assembly.element_poisson_ratio,
         density=assembly.element_density,
         thickness=mesh.thickness,
         contact_nodes=mesh.contact_nodes,
-        contact_normal=mesh.contact_normal,
-        contact_tangent=mesh.contact_tangent,
+        contact_frame=mesh.contact_frame,
         contact_area=mesh.contact_area,
         normal_stiffness=assembly.contact_view("normal_stiffness"),
         shear_stiffness=assembly.contact_view("shear_stiffness"),
@@ -165,22 +193,29 @@ def build_mechanical_model(
 
 
 def model_from_arrays(
-    *, node_xy, element_nodes, youngs_modulus, poisson_ratio, density, thickness,
-    contact_nodes, contact_normal, contact_tangent, contact_area, normal_stiffness,
-    shear_stiffness, friction_angle, cohesion, tensile_strength, bonded,
-    tensile_fracture_energy=None, shear_fracture_energy=None,
-    mass_scaling: bool = True, safety: float = 0.5,
+    *, x, cells, youngs_modulus, poisson_ratio, density, contact_nodes, contact_frame,
+    contact_area, normal_stiffness, shear_stiffness, friction_angle, cohesion,
+    tensile_strength, bonded, thickness: float = 1.0, tensile_fracture_energy=None,
+    shear_fracture_energy=None, mass_scaling: bool = True, safety: float = 0.5,
 ) -> MechanicalModel:
     """Build a :class:`MechanicalModel` from per-element and per-contact arrays (SI).
 
-    Fracture energies (J/m2) left out are zero: brittle contacts.
+    The dimension is that of ``x`` (2: triangles in plane strain of ``thickness``,
+    3: tetrahedra). Fracture energies (J/m2) left out are zero: brittle contacts.
     """
     if not 0.0 < safety < 1.0:
         raise ValueError(f"safety must be in (0, 1), got {safety}")
-    n_nodes = len(node_xy)
-    dndx, dndy, area = shape_gradients(node_xy, element_nodes)
-    if np.any(area <= 0):
-        raise ValueError("elements must be counter-clockwise with positive area")
+    x = np.asarray(x, dtype=np.float64)
+    n_nodes, dimension = x.shape
+    element = element_layer.element_for_dimension(dimension)
+    if cells.shape[1] != element.NODES_PER_CELL:
+        raise ValueError(f"{dimension}D cells need {element.NODES_PER_CELL} nodes, "
+                         f"got {cells.shape[1]}")
+    grad, size = element.gradients(x, cells)
+    if np.any(size <= 0):
+        raise ValueError("elements must be positively oriented (counter-clockwise "
+                         "triangles, right-handed tetrahedra) with positive measure")
+    measure = element.measure(size, thickness)
     lam, mu = lame_parameters(youngs_modulus, poisson_ratio)
     n_contacts = len(contact_nodes)
     g_tensile = (np.zeros(n_contacts) if tensile_fracture_energy is None
@@ -188,17 +223,14 @@ def model_from_arrays(
     g_shear = (np.zeros(n_contacts) if shear_fracture_energy is None
                else np.asarray(shear_fracture_energy, dtype=np.float64))
     real_mass = np.zeros(n_nodes)
-    np.add.at(real_mass, element_nodes,
-              np.repeat((density * area * thickness / 3.0)[:, None], 3, axis=1))
+    np.add.at(real_mass, cells, element.lumped_mass(density, size, thickness))
     k_nodes = nodal_stiffness_bound(
-        n_nodes, element_nodes, dndx, dndy, area, lam, mu, thickness,
-        contact_nodes, contact_normal, contact_tangent, contact_area, normal_stiffness,
-        shear_stiffness,
+        n_nodes, cells, grad, measure, lam, mu, contact_nodes, contact_frame, contact_area,
+        normal_stiffness, shear_stiffness,
     )
     if mass_scaling:
-        k_grain = np.zeros((n_nodes, 2))
-        np.add.at(k_grain, element_nodes,
-                  _element_row_sums(dndx, dndy, area, lam, mu, thickness))
+        k_grain = np.zeros((n_nodes, dimension))
+        np.add.at(k_grain, cells, element_row_sums(grad, measure, lam, mu))
         grain_node_dt = 2.0 / np.sqrt(k_grain.max(axis=1) / real_mass)
         dt = safety * float(np.quantile(grain_node_dt, MASS_SCALING_QUANTILE))
         mass = np.maximum(real_mass, k_nodes * (dt / (2.0 * safety)) ** 2)
@@ -206,17 +238,16 @@ def model_from_arrays(
         mass = real_mass
         dt = safety * 2.0 / np.sqrt(np.max(k_nodes / mass))
     return MechanicalModel(
-        node_xy=node_xy,
-        element_nodes=element_nodes,
-        dndx=dndx,
-        dndy=dndy,
-        element_area=area,
+        x=x,
+        cells=np.ascontiguousarray(cells, dtype=np.int64),
+        grad=grad,
+        cell_size=size,
+        cell_measure=measure,
         lam=lam,
         mu=mu,
-        thickness=thickness,
-        contact_nodes=contact_nodes,
-        contact_normal=contact_normal,
-        contact_tangent=contact_tangent,
+        thickness=float(thickness),
+        contact_nodes=np.ascontiguousarray(contact_nodes, dtype=np.int64).reshape(-1, 2),
+        contact_frame=np.ascontiguousarray(contact_frame, dtype=np.float64),
         contact_area=contact_area,
         normal_stiffness=normal_stiffness,
         shear_stiffness=shear_stiffness,

@@ -34,9 +34,11 @@ from scipy.spatial import Delaunay
 
 from grainfrac.assembly import GrainAssembly
 from grainfrac.errors import GeometryError
+from grainfrac.geometry.mesh import contact_frame
 from grainfrac.geometry.meshing import _hex_lattice
 from grainfrac.materials import ScdaRecipe
 from grainfrac.physics.model import MechanicalModel, build_mechanical_model, model_from_arrays
+from grainfrac.physics.records import Elements, ElementState
 from grainfrac.physics.solver import MechanicsSolver
 from grainfrac.units import DEG, GPA, GPA_PER_M, MPA
 
@@ -178,8 +180,8 @@ def build_scda_model(assembly: GrainAssembly, fill: ScdaFill, *, safety: float =
                                                for c, n in props])
 
     return model_from_arrays(
-        node_xy=np.vstack((mesh.node_xy, fill.node_xy)),
-        element_nodes=np.vstack((mesh.element_nodes, fill.element_nodes + n_rock)),
+        x=np.vstack((mesh.node_xy, fill.node_xy)),
+        cells=np.vstack((mesh.element_nodes, fill.element_nodes + n_rock)),
         youngs_modulus=np.concatenate((assembly.element_youngs_modulus,
                                        np.full(n_el, rec.youngs_modulus_GPa * GPA))),
         poisson_ratio=np.concatenate((assembly.element_poisson_ratio,
@@ -190,9 +192,7 @@ def build_scda_model(assembly: GrainAssembly, fill: ScdaFill, *, safety: float =
                                  np.column_stack((fill.wall_rock_node,
                                                   fill.wall_scda_node + n_rock)),
                                  fill.joint_nodes + n_rock)),
-        contact_normal=np.vstack((mesh.contact_normal, normal)),
-        contact_tangent=np.vstack((mesh.contact_tangent,
-                                   np.column_stack((-normal[:, 1], normal[:, 0])))),
+        contact_frame=contact_frame(np.vstack((mesh.contact_normal, normal))),
         contact_area=np.concatenate((mesh.contact_area, fill.wall_area, fill.joint_area)),
         normal_stiffness=column(rock.normal_stiffness, "normal_stiffness_GPa_per_m", GPA_PER_M),
         shear_stiffness=column(rock.shear_stiffness, "shear_stiffness_GPa_per_m", GPA_PER_M),
@@ -275,11 +275,10 @@ def plug_stored_energy(scda_solver: MechanicsSolver, n_rock_nodes: int,
     from grainfrac.physics import kernels
 
     m = scda_solver.model
-    plug = np.flatnonzero(m.element_nodes.min(axis=1) >= n_rock_nodes)
+    plug = np.flatnonzero(m.cells.min(axis=1) >= n_rock_nodes)
     strain = kernels.element_strain_energy(
-        scda_solver.u, m.element_nodes[plug], m.dndx[plug], m.dndy[plug], m.element_area[plug],
-        m.lam[plug], m.mu[plug], m.thickness, scda_solver.eigenstrain[plug],
-        scda_solver.initial_strain[plug])
+        scda_solver.u, Elements(*(np.ascontiguousarray(a[plug]) for a in m.elements)),
+        ElementState(*(np.ascontiguousarray(a[plug]) for a in scda_solver.element_state())))
     wall = slice(n_rock_contacts, None)
     contact = kernels.contact_strain_energy(
         scda_solver.sigma_n[wall], scda_solver.tau[wall], m.normal_stiffness[wall],
@@ -299,7 +298,7 @@ def drill_out(scda_solver: MechanicsSolver, rock_model: MechanicalModel) -> Mech
     s = MechanicsSolver(rock_model, damping=scda_solver.damping,
                         velocity_limit=scda_solver.velocity_limit)
     _copy_state(scda_solver, s, n_rock, c_rock)
-    s.energies[7] += plug_stored_energy(scda_solver, n_rock, c_rock)
+    s.energies["energy_removed"] += plug_stored_energy(scda_solver, n_rock, c_rock)
     ld = scda_solver.loads
     s.loads.external[:] = ld.external[:n_rock]
     s.loads.fixed[:] = ld.fixed[:n_rock]

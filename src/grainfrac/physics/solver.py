@@ -14,11 +14,20 @@ import numpy as np
 from grainfrac.errors import GrainfracError
 from grainfrac.loading.boundary import Loads, Platen
 from grainfrac.physics import kernels
+from grainfrac.physics.elements import n_strain_components, n_stress_components
 from grainfrac.physics.model import MechanicalModel
-
-ENERGY_KEYS = ("boundary_work", "damping_work", "friction_work", "bond_energy_released",
-               "platen_work", "expansion_work", "fluid_work", "energy_removed")
-
+from grainfrac.physics.records import (
+    ENERGY_KEYS,
+    ContactState,
+    CrackLog,
+    ElementState,
+    NodeLoads,
+    NodeState,
+    PlatenSet,
+    PoreSpringSet,
+    StepControl,
+    new_energies,
+)
 
 # The solver's evolving state: what a checkpoint saves and a rejected step restores.
 STATE_ARRAYS = ("u", "v", "stress", "bonded", "status", "sigma_n", "tau", "damage",
@@ -70,6 +79,12 @@ class PoreSprings:
         return cls(np.zeros(0, np.int64), np.zeros(0, np.int64), empty, 0.0, empty,
                    empty, empty)
 
+    def record(self) -> PoreSpringSet:
+        """The kernels' record, with a fresh void workspace."""
+        return PoreSpringSet(self.contact, self.pore, self.lower, float(self.initial_aperture),
+                             self.held_void, self.storage, self.ceiling,
+                             np.zeros(len(self.held_void)))
+
 
 class MechanicsSolver:
     """Advance a :class:`MechanicalModel` under :class:`Loads`.
@@ -98,45 +113,44 @@ class MechanicsSolver:
             )
         self.velocity_limit = velocity_limit
         self.model = model
-        self.loads = loads if loads is not None else Loads.free(model.n_nodes)
+        self.loads = (loads if loads is not None
+                      else Loads.free(model.n_nodes, model.dimension))
         self.damping = damping
         self.allow_failure = True
-        n, c = model.n_nodes, model.n_contacts
-        self.u = np.zeros((n, 2))
-        self.v = np.zeros((n, 2))
-        self.force = np.zeros((n, 2))
-        self.stress = np.zeros((len(model.element_nodes), 4))
+        n, c, m, d = model.n_nodes, model.n_contacts, model.n_elements, model.dimension
+        self.u = np.zeros((n, d))
+        self.v = np.zeros((n, d))
+        self.force = np.zeros((n, d))
+        self.stress = np.zeros((m, n_stress_components(d)))
         self.bonded = model.initially_bonded.copy()
         self.status = np.zeros(c, dtype=np.int64)
         self.sigma_n = np.zeros(c)
-        self.tau = np.zeros(c)
+        self.tau = np.zeros((c, d - 1))
         self.damage = np.zeros(c)
         self.plastic_opening = np.zeros(c)
         self.contact_pressure = np.zeros(c)
         self.released = np.zeros(c)
-        m = len(model.element_nodes)
         self.eigenstrain = np.zeros(m)
         self.eigenstrain_rate = np.zeros(m)
-        self.initial_strain = np.zeros((m, 3))
+        self.initial_strain = np.zeros((m, n_strain_components(d)))
         self.opening_offset = np.zeros(c)
-        self.energies = np.zeros(len(ENERGY_KEYS))
+        self.energies = new_energies()
         self.time = 0.0
         self.step_count = 0
         self.cracks = CrackRecord([], [], [], [])
-        self._failed_contact = np.zeros(c, dtype=np.int64)
-        self._failed_step = np.zeros(c, dtype=np.int64)
+        self._crack_log = CrackLog(np.zeros(c, dtype=np.int64), np.zeros(c, dtype=np.int64))
         # Set by a hydro-mechanical coupling for the next cycle only.
         self.pore_springs = PoreSprings.none()
 
     # -- stepping -----------------------------------------------------------------
-    def _platen_arrays(self):
+    def _platen_set(self) -> PlatenSet:
         platens: list[Platen] = self.loads.platens
         nodes = [p.nodes for p in platens]
         offsets = np.cumsum([0] + [len(x) for x in nodes]).astype(np.int64)
         cat = np.concatenate(nodes).astype(np.int64) if nodes else np.zeros(0, np.int64)
         stiff = np.concatenate([p.stiffness for p in platens]) if platens else np.zeros(0)
-        return (
-            cat, offsets,
+        return PlatenSet(
+            self.model.x, cat, offsets,
             np.array([p.axis for p in platens], dtype=np.int64),
             np.array([p.side for p in platens], dtype=np.float64),
             np.array([p.position for p in platens], dtype=np.float64),
@@ -144,33 +158,37 @@ class MechanicsSolver:
             stiff, np.zeros(len(platens)), np.zeros(len(cat)),
         )
 
+    def node_state(self) -> NodeState:
+        return NodeState(self.u, self.v, self.force)
+
+    def element_state(self) -> ElementState:
+        return ElementState(self.stress, self.eigenstrain, self.eigenstrain_rate,
+                            self.initial_strain)
+
+    def contact_state(self) -> ContactState:
+        return ContactState(self.bonded, self.status, self.sigma_n, self.tau, self.damage,
+                            self.plastic_opening, self.contact_pressure, self.released,
+                            self.opening_offset)
+
     def cycle(self, n_steps: int) -> None:
         """Advance ``n_steps`` steps; record new cracks; check for blow-up."""
         m, ld = self.model, self.loads
-        (pn, po, pa, ps, ppos, pvel, pstiff, preac, pnf) = self._platen_arrays()
-        r = self.pore_springs
+        platens = self._platen_set()
         n_new, done = kernels.run_steps(
-            n_steps, m.dt, self.damping, self.u, self.v, self.force, self.stress, ld.external,
-            m.mass, ld.fixed, ld.prescribed_velocity,
-            m.element_nodes, m.dndx, m.dndy, m.element_area, m.lam, m.mu, m.thickness,
-            m.contact_nodes, m.contact_normal, m.contact_tangent, m.contact_area,
-            m.normal_stiffness, m.shear_stiffness, m.tan_friction, m.cohesion,
-            m.tensile_strength, m.opening_to_fail, m.slip_to_fail, self.bonded, self.status,
-            self.sigma_n, self.tau, self.damage, self.plastic_opening, self.contact_pressure,
-            self.released,
-            m.node_xy, pn, po, pa, ps, ppos, pvel, pstiff, preac, pnf,
-            self._failed_contact, self._failed_step, self.energies, self.allow_failure,
-            self.velocity_limit, self.eigenstrain, self.eigenstrain_rate, self.initial_strain,
-            self.opening_offset, r.contact, r.pore, r.lower, r.initial_aperture, r.held_void,
-            r.storage, r.ceiling, np.zeros(len(r.held_void)),
+            StepControl(int(n_steps), m.dt, self.damping, bool(self.allow_failure),
+                        float(self.velocity_limit)),
+            self.node_state(), NodeLoads(m.mass, ld.external, ld.fixed, ld.prescribed_velocity),
+            m.elements, self.element_state(), m.contacts, self.contact_state(), platens,
+            self.pore_springs.record(), self.energies, self._crack_log,
         )
+        ppos, preac = platens.position, platens.reaction
         for platen, pos, reac in zip(ld.platens, ppos, preac, strict=True):
             platen.position = float(pos)
             platen.reaction = float(-reac)
         for i in range(n_new):
-            c = int(self._failed_contact[i])
+            c = int(self._crack_log.contact[i])
             self.cracks.contact.append(c)
-            self.cracks.time.append(self.time + (int(self._failed_step[i]) + 1) * m.dt)
+            self.cracks.time.append(self.time + (int(self._crack_log.step[i]) + 1) * m.dt)
             self.cracks.mode.append(int(self.status[c]))
             self.cracks.energy.append(float(self.released[c]))
         self.time += done * m.dt
@@ -263,10 +281,8 @@ class MechanicsSolver:
         return float(0.5 * np.sum(self.model.mass[:, None] * self.v**2))
 
     def grain_strain_energy(self) -> float:
-        m = self.model
-        return float(kernels.element_strain_energy(
-            self.u, m.element_nodes, m.dndx, m.dndy, m.element_area, m.lam, m.mu, m.thickness,
-            self.eigenstrain, self.initial_strain))
+        return float(kernels.element_strain_energy(self.u, self.model.elements,
+                                                   self.element_state()))
 
     def contact_strain_energy(self) -> float:
         m = self.model
@@ -275,7 +291,7 @@ class MechanicsSolver:
 
     def energy_balance(self) -> dict[str, float]:
         """Energies (J): work in, stored, dissipated, and the residual of the balance."""
-        out = dict(zip(ENERGY_KEYS, (float(x) for x in self.energies), strict=True))
+        out = {name: float(self.energies[name][0]) for name in ENERGY_KEYS}
         out["grain_strain_energy"] = self.grain_strain_energy()
         out["contact_strain_energy"] = self.contact_strain_energy()
         out["kinetic_energy"] = self.kinetic_energy()

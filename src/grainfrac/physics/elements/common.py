@@ -1,0 +1,90 @@
+"""What the linear triangle and tetrahedron share: Voigt layout, B matrices, row sums."""
+
+from __future__ import annotations
+
+from types import ModuleType
+
+import numpy as np
+
+
+def n_strain_components(dimension: int) -> int:
+    """Independent strain components: 3 in 2D (xx, yy, xy), 6 in 3D."""
+    return dimension * (dimension + 1) // 2
+
+
+def n_stress_components(dimension: int) -> int:
+    """Stored stress components: 4 in 2D (plane strain adds zz), 6 in 3D."""
+    return 4 if dimension == 2 else 6
+
+
+def shear_pairs(dimension: int) -> list[tuple[int, int]]:
+    """The (i, j) axes of each shear component, in Voigt order after the normal ones."""
+    return [(0, 1)] if dimension == 2 else [(1, 2), (0, 2), (0, 1)]
+
+
+def lame_parameters(youngs_modulus: np.ndarray, poisson_ratio: np.ndarray):
+    """Lame lambda and mu from E and nu (3D; plane strain uses the same pair)."""
+    lam = youngs_modulus * poisson_ratio / ((1 + poisson_ratio) * (1 - 2 * poisson_ratio))
+    mu = youngs_modulus / (2 * (1 + poisson_ratio))
+    return lam, mu
+
+
+def strain_displacement(grad: np.ndarray) -> np.ndarray:
+    """B matrices ``(m, n_strain, K d)`` from shape gradients ``grad[m, K, d]``.
+
+    Degrees of freedom are ordered node by node (x, y[, z] of node 0, then node 1...).
+    """
+    m, k, d = grad.shape
+    b = np.zeros((m, n_strain_components(d), k * d))
+    for i in range(d):
+        b[:, i, i::d] = grad[:, :, i]
+    for s, (i, j) in enumerate(shear_pairs(d)):
+        b[:, d + s, i::d] = grad[:, :, j]
+        b[:, d + s, j::d] = grad[:, :, i]
+    return b
+
+
+def elasticity_matrix(lam: np.ndarray, mu: np.ndarray, dimension: int) -> np.ndarray:
+    """Isotropic D matrices ``(m, n_strain, n_strain)`` (plane strain in 2D)."""
+    n = n_strain_components(dimension)
+    dmat = np.zeros((len(lam), n, n))
+    for i in range(dimension):
+        for j in range(dimension):
+            dmat[:, i, j] = lam
+        dmat[:, i, i] = lam + 2 * mu
+    for s in range(dimension, n):
+        dmat[:, s, s] = mu
+    return dmat
+
+
+def element_row_sums(grad: np.ndarray, measure: np.ndarray, lam: np.ndarray,
+                     mu: np.ndarray) -> np.ndarray:
+    """Absolute row sums of each element stiffness matrix, per (element, node, dof).
+
+    ``K_e = measure B^T D B``; the row sums are the Gershgorin bounds behind the
+    stable time step.
+    """
+    m, k, d = grad.shape
+    b = strain_displacement(grad)
+    dmat = elasticity_matrix(lam, mu, d)
+    ke = np.einsum("mia,mij,mjb->mab", b, dmat, b) * measure[:, None, None]
+    return np.abs(ke).sum(axis=2).reshape(m, k, d)
+
+
+def element_stiffness(grad: np.ndarray, measure: np.ndarray, lam: np.ndarray,
+                      mu: np.ndarray) -> np.ndarray:
+    """Element stiffness matrices ``(m, K d, K d)`` (N/m)."""
+    b = strain_displacement(grad)
+    dmat = elasticity_matrix(lam, mu, grad.shape[2])
+    return np.einsum("mia,mij,mjb->mab", b, dmat, b) * measure[:, None, None]
+
+
+def element_for_dimension(dimension: int) -> ModuleType:
+    """The element module of a dimension: :mod:`.triangle` (2) or :mod:`.tetrahedron` (3)."""
+    from grainfrac.physics.elements import tetrahedron, triangle
+
+    if dimension == 2:
+        return triangle
+    if dimension == 3:
+        return tetrahedron
+    raise ValueError(f"dimension must be 2 or 3, got {dimension}")

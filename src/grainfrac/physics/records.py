@@ -1,0 +1,144 @@
+"""Named records the mechanics kernels take (numba-compatible NamedTuples of arrays).
+
+Static records (``Elements``, ``Contacts``) hold what a model fixes; state
+records (``NodeState``, ``ElementState``, ``ContactState``) what the kernels
+advance; the others carry loads, platens, pore springs, the crack log and the
+step controls. Arrays are SI and shaped by the dimension ``d``: the same kernels
+and the same scalar laws serve triangles and tetrahedra, and a CUDA backend can
+take the same arrays. ``ENERGY_DTYPE`` names the energy books: one structured
+record, so no code reads them by position.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+# The mechanics' energy books (J), in the order reports list them.
+ENERGY_KEYS = ("boundary_work", "damping_work", "friction_work", "bond_energy_released",
+               "platen_work", "expansion_work", "fluid_work", "energy_removed")
+ENERGY_DTYPE = np.dtype([(name, np.float64) for name in ENERGY_KEYS])
+
+
+def new_energies() -> np.ndarray:
+    """A zeroed energy record (a structured array of one element)."""
+    return np.zeros(1, dtype=ENERGY_DTYPE)
+
+
+class StepControl(NamedTuple):
+    """How many explicit steps to take and how."""
+
+    n_steps: int
+    dt: float  # s
+    damping: float  # local damping coefficient alpha
+    allow_failure: bool  # False holds intact bonds elastic
+    velocity_limit: float  # m/s; beyond it the run has blown up
+
+
+class NodeState(NamedTuple):
+    """Per node: displacement, velocity and the force being assembled, all ``(n, d)``."""
+
+    u: np.ndarray
+    v: np.ndarray
+    force: np.ndarray
+
+
+class NodeLoads(NamedTuple):
+    """Per node: mass (kg), constant external force (N), fixed components, their velocity."""
+
+    mass: np.ndarray  # (n,)
+    external: np.ndarray  # (n, d)
+    fixed: np.ndarray  # (n, d) bool
+    prescribed_velocity: np.ndarray  # (n, d)
+
+
+class Elements(NamedTuple):
+    """Linear simplex cells: ``cells[m, d+1]``, ``grad[m, d+1, d]``, measure (m3), Lame."""
+
+    cells: np.ndarray
+    grad: np.ndarray
+    measure: np.ndarray
+    lam: np.ndarray
+    mu: np.ndarray
+
+
+class ElementState(NamedTuple):
+    """Per element: stress (Voigt, tension positive), eigenstrain and initial strain.
+
+    ``eigenstrain`` is isotropic in the model's plane (2D) or space (3D) and grows by
+    ``eigenstrain_rate`` per second; ``initial_strain`` (Voigt, engineering shear)
+    lets a body inserted into a loaded specimen start stress-free.
+    """
+
+    stress: np.ndarray
+    eigenstrain: np.ndarray
+    eigenstrain_rate: np.ndarray
+    initial_strain: np.ndarray
+
+
+class Contacts(NamedTuple):
+    """Sub-contacts: node pairs, frame ``[c, d, d]`` (normal, then d - 1 tangents),
+    area (m2), stiffness (Pa/m) and strength (Pa) with the softening lengths (m)."""
+
+    nodes: np.ndarray
+    frame: np.ndarray
+    area: np.ndarray
+    kn: np.ndarray
+    ks: np.ndarray
+    tan_phi: np.ndarray
+    cohesion: np.ndarray
+    tensile_strength: np.ndarray
+    opening_to_fail: np.ndarray
+    slip_to_fail: np.ndarray
+
+
+class ContactState(NamedTuple):
+    """Per sub-contact: bond, status, normal stress (compression positive), shear
+    stress vector ``tau[c, d-1]`` in the tangent frame, softening state, fluid
+    pressure, bond energy released (J) and the opening at creation (m)."""
+
+    bonded: np.ndarray
+    status: np.ndarray
+    sigma_n: np.ndarray
+    tau: np.ndarray
+    damage: np.ndarray
+    plastic_opening: np.ndarray
+    pressure: np.ndarray
+    released: np.ndarray
+    opening_offset: np.ndarray
+
+
+class PlatenSet(NamedTuple):
+    """Rigid frictionless platens; platen ``p`` acts on ``nodes[offsets[p]:offsets[p+1]]``."""
+
+    x: np.ndarray  # (n, d) reference node positions
+    nodes: np.ndarray
+    offsets: np.ndarray
+    axis: np.ndarray
+    side: np.ndarray
+    position: np.ndarray
+    velocity: np.ndarray
+    stiffness: np.ndarray
+    reaction: np.ndarray
+    node_force: np.ndarray
+
+
+class PoreSpringSet(NamedTuple):
+    """Pores whose pressure follows their void (see ``kernels.pore_spring_pressure``)."""
+
+    contact: np.ndarray
+    pore: np.ndarray
+    lower: np.ndarray
+    initial_aperture: float
+    held_void: np.ndarray
+    storage: np.ndarray
+    ceiling: np.ndarray
+    void: np.ndarray  # workspace, one per pore
+
+
+class CrackLog(NamedTuple):
+    """Contacts that broke during a call and the step (within the call) when they did."""
+
+    contact: np.ndarray
+    step: np.ndarray
