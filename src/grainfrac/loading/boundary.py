@@ -8,10 +8,12 @@ compressive stress ``s`` on a side with outward normal ``n`` is the traction
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from grainfrac.geometry.meshing import GrainMesh
+if TYPE_CHECKING:  # loads are plain arrays; the mesher is needed only to build them
+    from grainfrac.geometry.meshing import GrainMesh
 
 
 @dataclass

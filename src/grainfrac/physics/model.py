@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -24,6 +25,9 @@ from grainfrac.geometry.mesh import Mesh
 from grainfrac.physics import elements as element_layer
 from grainfrac.physics.elements import element_row_sums, lame_parameters
 from grainfrac.physics.records import Contacts, Elements
+
+if TYPE_CHECKING:  # the model needs no tessellation or materials code at run time
+    from grainfrac.assembly import GrainAssembly
 
 # 95 % of the nodes keep their real mass as far as the grains are concerned; the
 # stiffest 5 % (the smallest zones) are scaled. Measured on the default slab: dt
