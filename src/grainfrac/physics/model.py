@@ -20,11 +20,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from grainfrac.assembly import GrainAssembly
 from grainfrac.geometry.mesh import Mesh
 from grainfrac.physics import elements as element_layer
 from grainfrac.physics.elements import element_row_sums, lame_parameters
 from grainfrac.physics.records import Contacts, Elements
+
+if TYPE_CHECKING:  # the model needs no tessellation or materials code at run time
+    from grainfrac.assembly import GrainAssembly
 
 if TYPE_CHECKING:  # the model needs no tessellation or materials code at run time
     from grainfrac.assembly import GrainAssembly
