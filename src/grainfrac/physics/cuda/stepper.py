@@ -1,0 +1,161 @@
+"""``run_steps_cuda``: the explicit loop of :func:`grainfrac.physics.kernels.run_steps`
+on a GPU, on device copies of the same records.
+
+The host launches the kernels of each step and reads nothing back until the call
+ends, except an eight-byte control word every ``sync_every`` steps (to stop
+launching after a blow-up). Energy books, the crack list and the blow-up flag
+live on the device.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from grainfrac.physics.cuda._numba import SIMULATOR, cuda
+from grainfrac.physics.cuda.device_kernels import HALTED, N_CRACKS, step_kernels
+from grainfrac.physics.records import (
+    Contacts,
+    ContactState,
+    CrackLog,
+    Elements,
+    ElementState,
+    NodeLoads,
+    NodeState,
+    PlatenSet,
+    PoreSpringSet,
+    StepControl,
+)
+
+# 256 threads a block on a GPU (measured best for the tet step, shared/STACK-NOTES.md);
+# the simulator runs each thread as a Python thread, so fewer, smaller blocks.
+DEFAULT_TPB = 32 if SIMULATOR else 256
+DEFAULT_SYNC_EVERY = 1000
+
+
+def to_device(record):
+    """A copy of a record whose arrays live on the device (scalars stay as they are)."""
+    return type(record)(*(cuda.to_device(np.ascontiguousarray(a)) if isinstance(a, np.ndarray)
+                          else a for a in record))
+
+
+def copy_to_host(device_record, host_record) -> None:
+    """Copy a device record's arrays into a host record of the same type, in place."""
+    for dev, host in zip(device_record, host_record, strict=True):
+        if isinstance(host, np.ndarray):
+            host[...] = dev.copy_to_host()
+
+
+def device_energies(energies: np.ndarray):
+    """The device copy of an energy record (ENERGY_DTYPE): a float64[8] in its order."""
+    return cuda.to_device(np.ascontiguousarray(energies).view(np.float64).copy())
+
+
+def add_energies(energies: np.ndarray, device_books) -> None:
+    """Overwrite the host energy record with the device's books."""
+    energies.view(np.float64)[:] = device_books.copy_to_host()
+
+
+class DeviceWork(NamedTuple):
+    """Device scratch of a call: the control word ``[halted step, n cracks]``, the
+    largest |v| of each step and the platen of each platen node."""
+
+    control: object
+    vmax: object
+    platen_of: object
+
+
+def _blocks(n: int, tpb: int) -> int:
+    return max(1, (n + tpb - 1) // tpb)
+
+
+def fetch_cracks(cracks: CrackLog, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The first ``n`` entries of a device crack log, in the CPU backend's order
+    (by step, then contact): the device appends within a step in any order."""
+    if n == 0:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    contact = cracks.contact[:n].copy_to_host()
+    step = cracks.step[:n].copy_to_host()
+    order = np.lexsort((contact, step))
+    return contact[order], step[order]
+
+
+def run_steps_cuda(control: StepControl, nodes: NodeState, loads: NodeLoads,
+                   elements: Elements, element_state: ElementState, contacts: Contacts,
+                   contact_state: ContactState, platens: PlatenSet, pores: PoreSpringSet,
+                   energies, cracks: CrackLog, *, tpb: int = DEFAULT_TPB,
+                   sync_every: int = DEFAULT_SYNC_EVERY) -> tuple[int, int]:
+    """Advance ``control.n_steps`` explicit steps on the GPU.
+
+    Same semantics as :func:`grainfrac.physics.kernels.run_steps`, with every
+    record's arrays on the device (:func:`to_device`) and ``energies`` the device
+    float64[8] of :func:`device_energies`. Cracks are appended to the device
+    ``cracks`` in any order within a step (:func:`fetch_cracks` sorts them).
+    Returns (number of cracks appended, steps done); a run whose velocities
+    exceed ``velocity_limit`` stops after the offending step, as on the CPU. On
+    such a stop ``nodes.force`` holds zeros rather than the last step's forces.
+    """
+    k = step_kernels(nodes.u.shape[1], tpb)
+    n_steps = int(control.n_steps)
+    if n_steps <= 0:
+        return 0, 0
+    n_nodes = nodes.u.shape[0]
+    n_elements = elements.cells.shape[0]
+    n_contacts = contacts.nodes.shape[0]
+    n_pore_contacts = pores.contact.shape[0]
+    n_platen_nodes = platens.nodes.shape[0]
+    offsets = platens.offsets.copy_to_host() if platens.offsets.shape[0] else np.zeros(1, int)
+    platen_of = np.repeat(np.arange(max(len(offsets) - 1, 0)), np.diff(offsets))
+    work = DeviceWork(cuda.to_device(np.zeros(2, np.int64)), cuda.device_array(n_steps),
+                      cuda.to_device(platen_of.astype(np.int64)))
+    k["fill"][_blocks(n_steps, tpb), tpb](work.vmax, 0.0)
+    k["fill_rows"][_blocks(n_nodes, tpb), tpb](nodes.force, 0.0)
+    dt = float(control.dt)
+    alpha = float(control.damping)
+    allow = bool(control.allow_failure)
+    limit = float(control.velocity_limit)
+    ge, gc, gn = _blocks(n_elements, tpb), _blocks(n_contacts, tpb), _blocks(n_nodes, tpb)
+    gp, gq = _blocks(n_platen_nodes, tpb), _blocks(n_pore_contacts, tpb)
+    element_forces = k["element_forces"][ge, tpb]
+    contact_forces = k["contact_forces"][gc, tpb]
+    update_nodes = k["update_nodes"][gn, tpb]
+    es, cs = element_state, contact_state
+    for step in range(n_steps):
+        element_forces(step, dt, nodes.u, elements.cells, elements.grad, elements.measure,
+                       elements.lam, elements.mu, es.stress, es.eigenstrain,
+                       es.eigenstrain_rate, es.initial_strain, nodes.force, energies,
+                       work.control, work.vmax, limit, platens.position, platens.velocity,
+                       platens.reaction, pores.void)
+        if n_pore_contacts:
+            k["pore_void_sum"][gq, tpb](nodes.u, contacts.nodes, contacts.frame, contacts.area,
+                                        pores.contact, pores.pore, pores.lower,
+                                        float(pores.initial_aperture), pores.void,
+                                        work.control)
+            k["pore_pressure"][gq, tpb](pores.contact, pores.pore, pores.held_void,
+                                        pores.storage, pores.ceiling, pores.void,
+                                        cs.pressure, work.control)
+        if n_contacts:
+            contact_forces(step, dt, allow, nodes.u, nodes.v, nodes.force, contacts.nodes,
+                           contacts.frame, contacts.area, contacts.kn, contacts.ks,
+                           contacts.tan_phi, contacts.cohesion, contacts.tensile_strength,
+                           contacts.opening_to_fail, contacts.slip_to_fail, cs.bonded,
+                           cs.status, cs.sigma_n, cs.tau, cs.damage, cs.plastic_opening,
+                           cs.pressure, cs.released, cs.opening_offset, energies,
+                           work.control, cracks.contact, cracks.step)
+        if n_platen_nodes:
+            k["platen_forces"][gp, tpb](platens.x, nodes.u, nodes.force, work.platen_of,
+                                        platens.nodes, platens.axis, platens.side,
+                                        platens.position, platens.stiffness,
+                                        platens.reaction, platens.node_force, work.control)
+        update_nodes(step, dt, alpha, int(step == n_steps - 1), nodes.u, nodes.v, nodes.force,
+                     loads.mass, loads.external, loads.fixed, loads.prescribed_velocity,
+                     energies, work.vmax, work.control)
+        if n_platen_nodes:
+            k["platen_work"][gp, tpb](dt, nodes.v, work.platen_of, platens.nodes, platens.axis,
+                                      platens.node_force, energies, work.control)
+        if (step + 1) % sync_every == 0 and work.control.copy_to_host()[HALTED]:
+            break
+    state = work.control.copy_to_host()
+    done = int(state[HALTED]) or n_steps
+    return int(state[N_CRACKS]), done

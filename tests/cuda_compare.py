@@ -1,0 +1,102 @@
+"""Run a tiny grain block on the CPU backend and on the CUDA backend, print a JSON report.
+
+Run by ``tests/test_cuda_backend.py`` in a subprocess with ``NUMBA_ENABLE_CUDASIM=1``
+(the simulator must be chosen before numba is imported), or directly on a GPU.
+Usage: ``python tests/cuda_compare.py N_CELLS STEPS CYCLES VELOCITY [extras]``; with
+``extras`` a platen presses on the top face and a pore's fluid pressure follows
+the void of the middle contact plane (:class:`~grainfrac.physics.solver.PoreSprings`).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+
+import numpy as np
+
+from grainfrac.loading.boundary import Platen
+from grainfrac.physics.cuda import SIMULATOR, CudaMechanics
+from grainfrac.physics.cuda.synthetic import grain_block, pull_loads
+from grainfrac.physics.records import ENERGY_KEYS
+from grainfrac.physics.solver import MechanicsSolver, NumericalBlowUp, PoreSprings
+
+
+def relative(a: np.ndarray, b: np.ndarray) -> float:
+    scale = max(float(np.max(np.abs(a))), 1e-300)
+    return float(np.max(np.abs(a - b)) / scale)
+
+
+def main() -> None:
+    n, steps, cycles = (int(a) for a in sys.argv[1:4])
+    velocity = float(sys.argv[4])
+    extras = len(sys.argv) > 5 and sys.argv[5] == "extras"
+    block = grain_block(n, cuts=2)
+    solvers = []
+    for _ in range(2):
+        loads = pull_loads(block, (velocity, 0.3 * velocity, 0.0))
+        if extras:
+            top = np.flatnonzero(np.isclose(block.model.x[:, 2], block.model.x[:, 2].max()))
+            loads.platens.append(Platen(top, 2, 1, float(block.model.x[:, 2].max()), -0.5,
+                                        np.full(len(top), 1e9)))
+        solver = MechanicsSolver(block.model, loads)
+        # Some expansion, at uneven rates: a node whose force cancels by symmetry has
+        # a round-off velocity whose sign (local damping) neither backend can be
+        # expected to reproduce.
+        quarter = len(solver.eigenstrain_rate) // 4
+        solver.eigenstrain_rate[:quarter] = np.random.default_rng(1).uniform(1.0, 3.0, quarter)
+        if extras:
+            half = block.model.n_contacts // 2
+            c = np.arange(half, block.model.n_contacts)  # the second contact plane
+            area = block.model.contact_area[c]
+            solver.pore_springs = PoreSprings(
+                c, np.zeros(len(c), np.int64), np.full(len(c), 1e-7), 1e-6,
+                np.array([2e-6 * area.sum()]), np.array([1e-18]), np.array([30e6]))
+        solvers.append(solver)
+    cpu, gpu_host = solvers
+    gpu = CudaMechanics(gpu_host)
+    for _ in range(cycles):
+        cpu.cycle(steps)
+        gpu.cycle(steps)
+    gpu.pull()
+    report = {
+        "simulator": SIMULATOR,
+        "tets": block.model.n_elements, "contacts": block.model.n_contacts,
+        "steps": steps * cycles,
+        "cpu_cracks": sorted(zip(cpu.cracks.contact, cpu.cracks.mode, strict=True)),
+        "gpu_cracks": sorted(zip(gpu_host.cracks.contact, gpu_host.cracks.mode, strict=True)),
+        "same_crack_order": cpu.cracks.contact == gpu_host.cracks.contact,
+        "crack_time_diff": float(np.max(np.abs(np.subtract(cpu.cracks.time,
+                                                           gpu_host.cracks.time))))
+        if len(cpu.cracks.time) == len(gpu_host.cracks.time) and cpu.cracks.time else 0.0,
+        "u_rel": relative(cpu.u, gpu_host.u),
+        "v_rel": relative(cpu.v, gpu_host.v),
+        "force_rel": relative(cpu.force, gpu_host.force),
+        "stress_rel": relative(cpu.stress, gpu_host.stress),
+        "sigma_n_rel": relative(cpu.sigma_n, gpu_host.sigma_n),
+        "tau_rel": relative(cpu.tau, gpu_host.tau),
+        "damage_rel": relative(cpu.damage, gpu_host.damage),
+        "energy_rel": {k: abs(float(cpu.energies[k][0] - gpu_host.energies[k][0]))
+                       / max(abs(float(cpu.energies[k][0])), 1e-300) for k in ENERGY_KEYS},
+        "energy_cpu": {k: float(cpu.energies[k][0]) for k in ENERGY_KEYS},
+        "platen": [(p.position, p.reaction) for p in cpu.loads.platens],
+        "platen_gpu": [(p.position, p.reaction) for p in gpu_host.loads.platens],
+        "time": [cpu.time, gpu_host.time],
+    }
+    # A blow-up: the pull outruns a 5 m/s velocity limit in the first step; both
+    # backends stop after it and say so.
+    stops = []
+    for backend in ("cpu", "gpu"):
+        solver = MechanicsSolver(block.model, pull_loads(block, (velocity, 0.0, 0.0)),
+                                 velocity_limit=5.0)
+        runner = solver if backend == "cpu" else CudaMechanics(solver)
+        try:
+            runner.cycle(3)
+            stops.append(None)
+        except NumericalBlowUp:
+            stops.append(solver.step_count)
+    report["blowup_steps"] = stops
+    print(json.dumps(report))
+
+
+if __name__ == "__main__":
+    main()
