@@ -77,3 +77,15 @@ def test_gpu_backend_matches_cpu():
     report = _compare(simulator=False)
     assert not report["simulator"]
     _check(report)
+
+
+def test_gpu_benchmark_runs_end_to_end_in_the_simulator():
+    """``benchmarks/gpu.py --sim-smoke``: every code path of the GPU benchmark, tiny."""
+    env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_ENABLE_CUDASIM")}
+    env["PYTHONPATH"] = os.pathsep.join([str(ROOT / "src"), env.get("PYTHONPATH", "")])
+    out = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "gpu.py"), "--sim-smoke"],
+                         env=env, capture_output=True, text=True, timeout=300, check=False)
+    assert out.returncode == 0, out.stderr[-4000:]
+    for needle in ("device: numba CUDA simulator", "tet-steps/s", "split (ms/step",
+                   "CPU backend", "GPU/CPU at the same size", "total"):
+        assert needle in out.stdout, needle

@@ -60,16 +60,23 @@ class CudaMechanics:
         stepper.copy_to_host(self._element_state, s.element_state())
         stepper.copy_to_host(self._contact_state, s.contact_state())
 
-    def cycle(self, n_steps: int) -> None:
-        """Advance ``n_steps`` on the device; record new cracks; check for blow-up."""
+    def _pores_device(self):
+        """The solver's pore springs on the device (set per cycle by a coupling)."""
+        return stepper.to_device(self.solver.pore_springs.record())
+
+    def cycle(self, n_steps: int, *, timings: dict[str, float] | None = None) -> None:
+        """Advance ``n_steps`` on the device; record new cracks; check for blow-up.
+
+        ``timings``, if given, gets the wall time of each stage (see
+        :func:`~grainfrac.physics.cuda.stepper.run_steps_cuda`; slower).
+        """
         s, m = self.solver, self.solver.model
-        pores = s.pore_springs.record()
         n_new, done = stepper.run_steps_cuda(
             StepControl(int(n_steps), m.dt, s.damping, bool(s.allow_failure),
                         float(s.velocity_limit)),
             self._nodes, self._loads, self._elements, self._element_state, self._contacts,
-            self._contact_state, self._platens, stepper.to_device(pores), self._energies,
-            self._cracks, tpb=self.tpb, sync_every=max(int(n_steps), 1),
+            self._contact_state, self._platens, self._pores_device(), self._energies,
+            self._cracks, tpb=self.tpb, sync_every=max(int(n_steps), 1), timings=timings,
         )
         stepper.add_energies(s.energies, self._energies)
         positions = self._platens.position.copy_to_host()

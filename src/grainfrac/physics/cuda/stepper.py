@@ -9,6 +9,7 @@ live on the device.
 
 from __future__ import annotations
 
+import time
 from typing import NamedTuple
 
 import numpy as np
@@ -66,6 +67,24 @@ class DeviceWork(NamedTuple):
     platen_of: object
 
 
+class _StageClock:
+    """Adds the wall time since its last call to ``timings[stage]`` (if timing)."""
+
+    def __init__(self, timings: dict[str, float] | None):
+        self.timings = timings
+        if timings is not None:
+            cuda.synchronize()
+        self.last = time.perf_counter()
+
+    def __call__(self, stage: str) -> None:
+        if self.timings is None:
+            return
+        cuda.synchronize()
+        now = time.perf_counter()
+        self.timings[stage] = self.timings.get(stage, 0.0) + now - self.last
+        self.last = now
+
+
 def _blocks(n: int, tpb: int) -> int:
     return max(1, (n + tpb - 1) // tpb)
 
@@ -85,7 +104,8 @@ def run_steps_cuda(control: StepControl, nodes: NodeState, loads: NodeLoads,
                    elements: Elements, element_state: ElementState, contacts: Contacts,
                    contact_state: ContactState, platens: PlatenSet, pores: PoreSpringSet,
                    energies, cracks: CrackLog, *, tpb: int = DEFAULT_TPB,
-                   sync_every: int = DEFAULT_SYNC_EVERY) -> tuple[int, int]:
+                   sync_every: int = DEFAULT_SYNC_EVERY,
+                   timings: dict[str, float] | None = None) -> tuple[int, int]:
     """Advance ``control.n_steps`` explicit steps on the GPU.
 
     Same semantics as :func:`grainfrac.physics.kernels.run_steps`, with every
@@ -95,7 +115,12 @@ def run_steps_cuda(control: StepControl, nodes: NodeState, loads: NodeLoads,
     Returns (number of cracks appended, steps done); a run whose velocities
     exceed ``velocity_limit`` stops after the offending step, as on the CPU. On
     such a stop ``nodes.force`` holds zeros rather than the last step's forces.
+
+    With ``timings`` (a dict) the host waits for the device after each stage and
+    adds its wall time (s) under "elements", "contacts" (with the pores),
+    "platens" and "nodes": a time split for benchmarks, slower than a plain run.
     """
+    clock = _StageClock(timings)
     k = step_kernels(nodes.u.shape[1], tpb)
     n_steps = int(control.n_steps)
     if n_steps <= 0:
@@ -127,6 +152,7 @@ def run_steps_cuda(control: StepControl, nodes: NodeState, loads: NodeLoads,
                        es.eigenstrain_rate, es.initial_strain, nodes.force, energies,
                        work.control, work.vmax, limit, platens.position, platens.velocity,
                        platens.reaction, pores.void)
+        clock("elements")
         if n_pore_contacts:
             k["pore_void_sum"][gq, tpb](nodes.u, contacts.nodes, contacts.frame, contacts.area,
                                         pores.contact, pores.pore, pores.lower,
@@ -143,17 +169,21 @@ def run_steps_cuda(control: StepControl, nodes: NodeState, loads: NodeLoads,
                            cs.status, cs.sigma_n, cs.tau, cs.damage, cs.plastic_opening,
                            cs.pressure, cs.released, cs.opening_offset, energies,
                            work.control, cracks.contact, cracks.step)
+        clock("contacts")
         if n_platen_nodes:
             k["platen_forces"][gp, tpb](platens.x, nodes.u, nodes.force, work.platen_of,
                                         platens.nodes, platens.axis, platens.side,
                                         platens.position, platens.stiffness,
                                         platens.reaction, platens.node_force, work.control)
+            clock("platens")
         update_nodes(step, dt, alpha, int(step == n_steps - 1), nodes.u, nodes.v, nodes.force,
                      loads.mass, loads.external, loads.fixed, loads.prescribed_velocity,
                      energies, work.vmax, work.control)
+        clock("nodes")
         if n_platen_nodes:
             k["platen_work"][gp, tpb](dt, nodes.v, work.platen_of, platens.nodes, platens.axis,
                                       platens.node_force, energies, work.control)
+            clock("platens")
         if (step + 1) % sync_every == 0 and work.control.copy_to_host()[HALTED]:
             break
     state = work.control.copy_to_host()

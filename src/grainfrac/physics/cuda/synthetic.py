@@ -55,7 +55,7 @@ def _kuhn_cells() -> np.ndarray:
 
 def grain_block(n: int, *, size: float = 0.01, cuts: int = 2, softening: bool = True,
                 mass_scaling: bool = True) -> GrainBlock:
-    """A block of ``6 n^3`` tetrahedra in ``cuts + 1`` slab grains joined by bonded contacts.
+    """A block of ``6 n^3`` tetrahedra in (at most) ``cuts + 1`` slab grains, bonded.
 
     With ``softening`` every other contact plane has G_I = 40 and G_II = 400 J/m2
     (linear softening), the others are brittle.
@@ -71,7 +71,8 @@ def grain_block(n: int, *, size: float = 0.01, cuts: int = 2, softening: bool = 
     base = (i * m + j) * m + k
     cells = (base[:, None, None] + corner_offset[local][None]).reshape(-1, 4)
     cube_i = np.repeat(i, 6)
-    planes = [round(n * (p + 1) / (cuts + 1)) for p in range(cuts)]
+    # Distinct interior planes (a small block has room for fewer than asked).
+    planes = sorted({round(n * (p + 1) / (cuts + 1)) for p in range(cuts)} - {0, n})
     node_i = np.repeat(np.arange(m), m * m)
     xs, pairs, areas, soft = [x], [], [], []
     h = size / n
@@ -84,7 +85,7 @@ def grain_block(n: int, *, size: float = 0.01, cuts: int = 2, softening: bool = 
         copy = n_nodes + np.arange(len(on_plane))
         n_nodes += len(on_plane)
         xs.append(x[on_plane])
-        remap = np.full(len(x), -1)
+        remap = np.full(n_nodes, -1)
         remap[on_plane] = copy
         beyond = cube_i >= plane
         sub = cells[beyond]

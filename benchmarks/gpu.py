@@ -1,0 +1,224 @@
+"""Benchmark: the full explicit mechanical step on a GPU (numba-cuda) against the CPU.
+
+Synthetic 3D blocks (:mod:`grainfrac.physics.cuda.synthetic`: ``6 n^3`` linear
+tetrahedra of 1 mm cubes, cut by 4 planes into 5 slab grains joined by bonded
+quartz-quartz sub-contacts, paper Table 2 properties) are held at one face and
+pulled and sheared at the other. For each size it prints the build time, the
+host-to-device copy, the first call (kernel compile, first size only), tet-steps
+per second of :meth:`CudaMechanics.cycle` (elements + contacts + node update +
+damping + energy books + crack list, host reading back only the books, the
+cracks and the platens at the end of the cycle), the time split by stage (each
+stage timed alone, with a device synchronisation after it), and the
+device-to-host copy of the whole state. Then the same step on the CPU backend
+(``MechanicsSolver.cycle``, numba, one thread: the CPU kernels are serial) at a
+smaller size, and the GPU/CPU ratio.
+
+Usage (from the repository root)::
+
+    PYTHONPATH=src python3 benchmarks/gpu.py            # ~1e5 .. 1e7 tets, < 5 min
+    PYTHONPATH=src python3 benchmarks/gpu.py --quick    # 1e5 and 1e6 tets, ~1 min
+    PYTHONPATH=src python3 benchmarks/gpu.py --sim-smoke  # CPU only: numba's simulator
+
+Model set-up uses ``model_from_arrays``; its element row sums (an ``np.einsum``
+without contraction order, ~20 us a tet) are swapped here for the same formula as
+two batched matrix products (checked against the library at the first size).
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import datetime
+import importlib.metadata
+import os
+import platform
+import sys
+import time
+
+SMOKE = "--sim-smoke" in sys.argv
+if SMOKE:  # must be set before numba is imported
+    os.environ["NUMBA_ENABLE_CUDASIM"] = "1"
+
+import numpy as np  # noqa: E402
+
+import grainfrac.physics.model as model_module  # noqa: E402
+from grainfrac.physics.cuda import CudaMechanics, device_name  # noqa: E402
+from grainfrac.physics.cuda._numba import cuda  # noqa: E402
+from grainfrac.physics.cuda.synthetic import grain_block, pull_loads  # noqa: E402
+from grainfrac.physics.elements.common import (  # noqa: E402
+    elasticity_matrix,
+    element_row_sums,
+    strain_displacement,
+)
+from grainfrac.physics.solver import MechanicsSolver  # noqa: E402
+
+CELL = 1e-3  # m, edge of a sub-cube
+PULL = (0.5, 0.15, 0.0)  # m/s, the moving face's velocity
+TARGET = 3e9  # tet-steps/s at >= 1e6 tets (issue 44)
+BUDGET = 270.0  # s: skip a size whose set-up would not fit
+
+
+def say(*parts) -> None:
+    print(*parts, flush=True)
+
+
+def fast_row_sums(grad, measure, lam, mu, chunk=1_000_000):
+    """``element_row_sums`` as batched matmuls: |B^T D B| V row sums, in chunks."""
+    m, k, d = grad.shape
+    out = np.empty((m, k, d))
+    for start in range(0, m, chunk):
+        sl = slice(start, min(start + chunk, m))
+        b = strain_displacement(grad[sl])
+        dmat = elasticity_matrix(lam[sl], mu[sl], d)
+        ke = np.matmul(np.matmul(b.transpose(0, 2, 1), dmat), b) * measure[sl, None, None]
+        out[sl] = np.abs(ke).sum(axis=2).reshape(-1, k, d)
+    return out
+
+
+@contextlib.contextmanager
+def fast_model_setup():
+    original = model_module.element_row_sums
+    model_module.element_row_sums = fast_row_sums
+    try:
+        yield
+    finally:
+        model_module.element_row_sums = original
+
+
+def build(n: int):
+    with fast_model_setup():
+        return grain_block(n, size=n * CELL, cuts=4)
+
+
+def versions() -> str:
+    out = []
+    for dist in ("numba", "numba-cuda", "numpy", "cuda-python", "cuda-bindings"):
+        with contextlib.suppress(importlib.metadata.PackageNotFoundError):
+            out.append(f"{dist} {importlib.metadata.version(dist)}")
+    return ", ".join(out)
+
+
+def time_gpu(n: int, steps: int, first: bool) -> dict:
+    t0 = time.perf_counter()
+    block = build(n)
+    model = block.model
+    t_build = time.perf_counter() - t0
+    solver = MechanicsSolver(model, pull_loads(block, PULL))
+    cuda.synchronize()
+    t0 = time.perf_counter()
+    gpu = CudaMechanics(solver)
+    cuda.synchronize()
+    t_push = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    gpu.cycle(2)  # compiles on the first size
+    cuda.synchronize()
+    t_first = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    gpu.cycle(steps)
+    cuda.synchronize()
+    t_run = time.perf_counter() - t0
+    # The split: the same stages, timed one by one.
+    split: dict[str, float] = {}
+    split_steps = max(steps // 4, 2)
+    gpu.cycle(split_steps, timings=split)
+    t0 = time.perf_counter()
+    gpu.pull()
+    t_pull = time.perf_counter() - t0
+    m = model.n_elements
+    return {
+        "n": n, "tets": m, "nodes": model.n_nodes, "contacts": model.n_contacts,
+        "steps": steps, "build_s": t_build, "push_s": t_push, "first_call_s": t_first,
+        "run_s": t_run, "rate": m * steps / t_run,
+        "split_ms": {k: 1e3 * v / split_steps for k, v in split.items()},
+        "pull_s": t_pull, "cracks": len(solver.cracks.contact), "first": first,
+    }
+
+
+def time_cpu(n: int, steps: int) -> dict:
+    block = build(n)
+    solver = MechanicsSolver(block.model, pull_loads(block, PULL))
+    t0 = time.perf_counter()
+    solver.cycle(2)  # compiles (or loads the cache)
+    t_first = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    solver.cycle(steps)
+    t_run = time.perf_counter() - t0
+    m = block.model.n_elements
+    return {"n": n, "tets": m, "steps": steps, "first_call_s": t_first, "run_s": t_run,
+            "rate": m * steps / t_run}
+
+
+def check_setup(n: int) -> None:
+    """The swapped row sums against the library's, on a small block."""
+    block = grain_block(n, size=n * CELL, cuts=4).model
+    args = (block.grad, block.cell_measure, block.lam, block.mu)
+    ref, fast = element_row_sums(*args), fast_row_sums(*args, chunk=97)
+    assert np.allclose(fast, ref, rtol=1e-12, atol=0.0), "fast row sums differ"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--quick", action="store_true", help="1e5 and 1e6 tets (~1 min)")
+    parser.add_argument("--sim-smoke", action="store_true",
+                        help="tiny sizes in numba's CUDA simulator (no GPU needed)")
+    parser.add_argument("--sizes", type=int, nargs="*",
+                        help="cube edges n (6 n^3 tets); default 26 56 80 119")
+    parser.add_argument("--cpu-n", type=int, help="cube edge of the CPU run (default 26)")
+    args = parser.parse_args()
+    start = time.perf_counter()
+    if args.sim_smoke:
+        sizes, cpu_n, steps_for = args.sizes or [2], args.cpu_n or 2, (lambda m: 3)
+    elif args.quick:
+        sizes, cpu_n = args.sizes or [26, 56], args.cpu_n or 26
+        steps_for = lambda m: int(np.clip(3e9 / m, 50, 2000))  # noqa: E731
+    else:
+        sizes, cpu_n = args.sizes or [26, 56, 80, 119], args.cpu_n or 26
+        steps_for = lambda m: int(np.clip(1e10 / m, 100, 4000))  # noqa: E731
+    say(f"# grainfrac GPU benchmark, {datetime.datetime.now().isoformat(timespec='seconds')}")
+    say(f"device: {device_name()}")
+    say(f"python {platform.python_version()}, {versions()}, host {platform.node()} "
+        f"({os.cpu_count()} CPU cores)")
+    check_setup(3)
+    results = []
+    per_tet_build = None
+    for i, n in enumerate(sizes):
+        m = 6 * n**3
+        elapsed = time.perf_counter() - start
+        if per_tet_build is not None and elapsed + 1.5 * per_tet_build * m > BUDGET:
+            say(f"skipping n = {n} ({m:.2e} tets): its set-up (~{per_tet_build * m:.0f} s) "
+                f"would pass the {BUDGET:.0f} s budget")
+            continue
+        r = time_gpu(n, steps_for(m), first=i == 0)
+        per_tet_build = max(per_tet_build or 0.0, r["build_s"] / r["tets"])
+        results.append(r)
+        split = ", ".join(f"{k} {v:.3f}" for k, v in r["split_ms"].items())
+        say(f"n={n:4d} tets {r['tets']:.3e} nodes {r['nodes']:.2e} contacts {r['contacts']:.2e}"
+            f" | build {r['build_s']:.1f} s, host->device {r['push_s']:.3f} s, first call "
+            f"{r['first_call_s']:.2f} s{' (compile)' if r['first'] else ''}")
+        say(f"        {r['steps']} steps in {r['run_s']:.3f} s: {r['rate']:.3e} tet-steps/s, "
+            f"{1e3 * r['run_s'] / r['steps']:.4f} ms/step, {r['cracks']} cracks so far")
+        say(f"        split (ms/step, synchronised): {split}; device->host (whole state) "
+            f"{r['pull_s']:.3f} s")
+    cpu = time_cpu(cpu_n, steps_for(6 * cpu_n**3) if args.sim_smoke else
+                   int(np.clip(2e7 / (6 * cpu_n**3), 20, 400)))
+    say(f"CPU backend (numba, 1 thread), n={cpu_n}, tets {cpu['tets']:.3e}: {cpu['steps']} steps"
+        f" in {cpu['run_s']:.3f} s: {cpu['rate']:.3e} tet-steps/s (first call "
+        f"{cpu['first_call_s']:.2f} s)")
+    same = [r for r in results if r["n"] == cpu_n]
+    if same:
+        say(f"GPU/CPU at the same size ({same[0]['tets']:.2e} tets): "
+            f"{same[0]['rate'] / cpu['rate']:.1f} x")
+    if results:
+        best = max(results, key=lambda r: r["rate"])
+        say(f"GPU/CPU, best GPU size ({best['tets']:.2e} tets) over the CPU rate: "
+            f"{best['rate'] / cpu['rate']:.1f} x")
+        big = [r for r in results if r["tets"] >= 1e6]
+        if big and not args.sim_smoke:
+            ok = max(r["rate"] for r in big) >= TARGET
+            say(f"target >= {TARGET:.0e} tet-steps/s at >= 1e6 tets: "
+                f"{'met' if ok else 'NOT met'}")
+    say(f"total {time.perf_counter() - start:.1f} s")
+
+
+if __name__ == "__main__":
+    main()
