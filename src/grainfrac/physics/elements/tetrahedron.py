@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 DIMENSION = 3
 NODES_PER_CELL = 4
@@ -34,3 +35,76 @@ def lumped_mass(density: np.ndarray, size: np.ndarray, thickness: float | None =
                 ) -> np.ndarray:
     """Per-node lumped mass ``(m, 4)`` (kg): a quarter of each tetrahedron's mass."""
     return np.repeat((density * size / 4.0)[:, None], 4, axis=1)
+
+
+# -- kernels (numba): the element's strain, stress and nodal forces ----------------------
+@njit(cache=True, inline="always")
+def elastic_strain(u, cells, grad, initial_strain, eigenstrain, e):
+    """Elastic strain (xx, yy, zz, yz, xz, xy engineering) of tetrahedron ``e``."""
+    exx = -initial_strain[e, 0] - eigenstrain[e]
+    eyy = -initial_strain[e, 1] - eigenstrain[e]
+    ezz = -initial_strain[e, 2] - eigenstrain[e]
+    gyz = -initial_strain[e, 3]
+    gxz = -initial_strain[e, 4]
+    gxy = -initial_strain[e, 5]
+    for k in range(4):
+        n = cells[e, k]
+        gx, gy, gz = grad[e, k, 0], grad[e, k, 1], grad[e, k, 2]
+        ux, uy, uz = u[n, 0], u[n, 1], u[n, 2]
+        exx += gx * ux
+        eyy += gy * uy
+        ezz += gz * uz
+        gyz += gz * uy + gy * uz
+        gxz += gz * ux + gx * uz
+        gxy += gy * ux + gx * uy
+    return exx, eyy, ezz, gyz, gxz, gxy
+
+
+@njit(cache=True)
+def internal_forces(u, elements, state, force):
+    """Add internal forces of linear tetrahedra to ``force``; store stresses.
+
+    sigma = lam tr(eps) I + 2 mu eps;  f_a = -V B_a^T sigma with V the volume.
+    ``stress[e] = (sxx, syy, szz, syz, sxz, sxy)``.
+    """
+    cells, grad, measure, lam, mu = elements
+    stress, eigenstrain, _, initial_strain = state
+    for e in range(cells.shape[0]):
+        exx, eyy, ezz, gyz, gxz, gxy = elastic_strain(u, cells, grad, initial_strain,
+                                                      eigenstrain, e)
+        tr = lam[e] * (exx + eyy + ezz)
+        two_mu = 2.0 * mu[e]
+        sxx = tr + two_mu * exx
+        syy = tr + two_mu * eyy
+        szz = tr + two_mu * ezz
+        syz = mu[e] * gyz
+        sxz = mu[e] * gxz
+        sxy = mu[e] * gxy
+        stress[e, 0] = sxx
+        stress[e, 1] = syy
+        stress[e, 2] = szz
+        stress[e, 3] = syz
+        stress[e, 4] = sxz
+        stress[e, 5] = sxy
+        vol = measure[e]
+        for k in range(4):
+            n = cells[e, k]
+            gx, gy, gz = grad[e, k, 0], grad[e, k, 1], grad[e, k, 2]
+            force[n, 0] -= vol * (gx * sxx + gy * sxy + gz * sxz)
+            force[n, 1] -= vol * (gx * sxy + gy * syy + gz * syz)
+            force[n, 2] -= vol * (gx * sxz + gy * syz + gz * szz)
+
+
+@njit(cache=True)
+def strain_energy(u, elements, state):
+    """Elastic strain energy stored in the tetrahedra (J)."""
+    cells, grad, measure, lam, mu = elements
+    total = 0.0
+    for e in range(cells.shape[0]):
+        exx, eyy, ezz, gyz, gxz, gxy = elastic_strain(u, cells, grad, state.initial_strain,
+                                                      state.eigenstrain, e)
+        tr = lam[e] * (exx + eyy + ezz)
+        w = (tr * (exx + eyy + ezz) + 2.0 * mu[e] * (exx * exx + eyy * eyy + ezz * ezz)
+             + mu[e] * (gyz * gyz + gxz * gxz + gxy * gxy))
+        total += 0.5 * w * measure[e]
+    return total
