@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from grainfrac.assembly import GrainAssembly, build_assembly
-from grainfrac.errors import GrainfracError
+from grainfrac.errors import CheckpointError, GrainfracError
 from grainfrac.io.checkpoint import read_checkpoint, write_checkpoint
 from grainfrac.io.results import write_history
 from grainfrac.io.snapshots import SnapshotSeries
@@ -242,8 +242,11 @@ class Run(Hooks):
         self.record = RunRecord(**rec)
         self.driver.state = DriverState(**records["driver"])
         for i, stage in enumerate(self.stages):
-            saved = dict(records[f"stages/{i}"])
-            saved.pop("kind")
+            saved = dict(records.get(f"stages/{i}", {"kind": None}))
+            kind = saved.pop("kind")
+            if kind != stage.kind:
+                raise CheckpointError(f"{path}: stage {i + 1} of the checkpoint is {kind}, the "
+                                      f"scenario's is {stage.kind}: not this scenario's run")
             stage.state = type(stage.state)(**saved)
         w = self.world
         world = records["world"]

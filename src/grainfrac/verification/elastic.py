@@ -219,7 +219,7 @@ def kirsch(sigma_x: float = 2.5e6, sigma_y: float = 5.0e6, seed: int = 0, *,
            max_steps: int = 400_000) -> list[Comparison]:
     """Hoop stress around the borehole under far-field stress vs the Kirsch solution.
 
-    Loading: the production path, :func:`grainfrac.loading.insitu.initialise_in_situ`
+    Loading: the production path, the :class:`~grainfrac.stages.Equilibrate` stage
     (uniform normal tractions ``sigma_x`` on left/right, ``sigma_y`` on top/bottom,
     compressive Pa; default paper Table 6 case 2, 2.5 / 5 MPa), equilibrated to an
     unbalanced-force ratio ``ratio``.
