@@ -279,7 +279,9 @@ def test_the_fluid_energy_books_close_before_breakdown():
 def test_pore_spring_pressure_follows_the_void():
     """Two sub-contacts of one pore: pressure (held void - void) / storage, never negative,
     and the void keeps following an opening wider than a_max (30 um)."""
+    from grainfrac.geometry.mesh import contact_frame
     from grainfrac.physics.kernels import pore_spring_pressure
+    from grainfrac.physics.records import Contacts, PoreSpringSet
 
     # Contact 0 joins nodes 0-1, contact 1 nodes 2-3, both with normal +x, area 2e-5 m2.
     contact_nodes = np.array([[0, 1], [2, 3]])
@@ -293,10 +295,12 @@ def test_pore_spring_pressure_follows_the_void():
     def at(opening, held=held_void, ceiling=np.inf):
         u = np.zeros((4, 2))
         u[1, 0] = u[3, 0] = opening
-        pore_spring_pressure(u, contact_nodes, normal, area, np.array([0, 1]),
-                             np.array([0, 0]), np.full(2, a0), a0,
-                             np.array([held]), np.array([storage]), np.array([ceiling]),
-                             np.zeros(1), pressure)
+        zero = np.zeros(2)
+        contacts = Contacts(contact_nodes, contact_frame(normal), area, *[zero] * 7)
+        pores = PoreSpringSet(np.array([0, 1]), np.array([0, 0]), np.full(2, a0), a0,
+                              np.array([held]), np.array([storage]), np.array([ceiling]),
+                              np.zeros(1))
+        pore_spring_pressure(u, contacts, pores, pressure)
         return pressure.copy()
 
     assert np.allclose(at(1e-6 - a0), 5e6)
@@ -328,10 +332,7 @@ def test_an_undrained_pore_starts_its_step_at_the_solved_pressure(coupled):
         assert c in r.contact
         assert np.isinf(r.ceiling[r.pore[np.flatnonzero(r.contact == c)[0]]])
         pressure = np.zeros(m.model.n_contacts)
-        pore_spring_pressure(m.u, m.model.contact_nodes, m.model.contact_normal,
-                             m.model.contact_area, r.contact, r.pore, r.lower,
-                             r.initial_aperture, r.held_void, r.storage, r.ceiling,
-                             np.zeros(len(r.held_void)), pressure)
+        pore_spring_pressure(m.u, m.model.contacts, r.record(), pressure)
     finally:
         coupled.state = saved
     assert pressure[c] == pytest.approx(5.0 * MPA, rel=1e-6)
@@ -367,10 +368,7 @@ def test_a_drained_pore_holds_its_pressure_only_within_its_fluid(coupled):
         b = model.contact_nodes[mine, 1]
         u[b] += opening * model.contact_normal[mine]
         out = np.zeros(model.n_contacts)
-        pore_spring_pressure(u, model.contact_nodes, model.contact_normal,
-                             model.contact_area, r.contact, r.pore, r.lower,
-                             r.initial_aperture, r.held_void, r.storage, r.ceiling,
-                             np.zeros(len(r.held_void)), out)
+        pore_spring_pressure(u, model.contacts, r.record(), out)
         return out[c]
 
     assert pressure_at(0.0) == pytest.approx(5.0 * MPA)

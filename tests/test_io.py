@@ -12,10 +12,11 @@ import pytest
 from grainfrac.assembly import SpecimenConfig, build_assembly
 from grainfrac.io.config import validate
 from grainfrac.io.files import atomic_path, write_csv
-from grainfrac.io.snapshots import SnapshotSeries, contact_opening
+from grainfrac.io.snapshots import SnapshotSeries
 from grainfrac.io.vtk import write_assembly
 from grainfrac.physics.cracks import crack_catalogue
 from grainfrac.physics.kernels import SHEAR, TENSILE
+from grainfrac.physics.kinematics import contact_opening
 
 
 @pytest.fixture(scope="module")

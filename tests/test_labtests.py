@@ -25,7 +25,7 @@ from grainfrac.labtests.formulas import (
     nscb_geometry_factor,
     plane_strain_to_isotropic,
 )
-from grainfrac.labtests.platens import first_peak
+from grainfrac.stages.platen import first_peak
 
 # Paper Table 3 orders of magnitude (laboratory), for "values of the paper's magnitude".
 TABLE3 = {"ucs_MPa": 120.94, "bts_MPa": 6.38, "kic_MPa_sqrt_m": 1.35,
@@ -54,7 +54,7 @@ def test_diametral_split_needs_one_crack_through_the_centre():
 def test_bts_is_read_at_the_split_not_at_the_lock_up():
     """After the split the halves of a 2D disk lock up and carry more load: not strength."""
     from grainfrac.labtests.mechanical import reduce_bts
-    from grainfrac.labtests.platens import LoadingCurve
+    from grainfrac.stages.platen import LoadingCurve
 
     cfg = lab_test_config("bts", seed=0)
     load = np.concatenate((np.linspace(0, 8e3, 40), np.linspace(8e3, 20e3, 60)))

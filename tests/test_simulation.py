@@ -13,8 +13,10 @@ from typer.testing import CliRunner
 from grainfrac.cli import app
 from grainfrac.io.config import validate
 from grainfrac.physics.coupled import HydroMechanicalSolver
+from grainfrac.run import Run, RunFailed
 from grainfrac.scenario import Scenario, write_resolved
-from grainfrac.simulation import Run, RunFailed, run_scenario
+from grainfrac.simulation import run_scenario
+from grainfrac.stages.inject import fracture_at_boundary
 
 SMALL = {
     "name": "small-hs",
@@ -52,7 +54,7 @@ def test_run_directory_has_every_file(reference):
                  "snapshots/contacts_0000.vtu", "figures/fractures.png",
                  "figures/well_pressure.png", "figures/pressures.png",
                  "figures/displacement.png", "figures/minor_principal_stress.png",
-                 "figures/fluid_pressure.png", "checkpoint/state.npz"):
+                 "figures/fluid_pressure.png", "checkpoint/state.h5"):
         assert (out / name).stat().st_size > 0, name
     on_disk = json.loads((out / "summary.json").read_text())
     for key in ("grainfrac_version", "seed", "wall_time_s", "n_grains", "n_elements",
@@ -121,7 +123,7 @@ def test_blow_up_names_stage_step_time_and_keeps_last_good_state(tmp_path, monke
     print(f"\n{message}")
     assert "stage 2 (inject)" in message and "step" in message and "t = " in message
     assert "checkpoint" in message
-    assert (tmp_path / "boom" / "checkpoint" / "state.npz").is_file()
+    assert (tmp_path / "boom" / "checkpoint" / "state.h5").is_file()
     assert (tmp_path / "boom" / "history.csv").is_file()
     assert not (tmp_path / "boom" / "summary.json").exists()
 
@@ -198,7 +200,7 @@ def test_injection_stops_at_the_boundary_only_for_cracks_it_made(tmp_path):
     mesh = run.assembly.mesh
     near = mesh.grains.outline.side_of_points(mesh.contact_xy, mesh.zone_size)
     edge = int(np.flatnonzero(near["right"])[0])
-    run.state.injection_start_time = 1.0e-3
+    run.world.injection_start_time = 1.0e-3
 
     def crack(time_s: float) -> None:
         for record, value in zip((run.solver.cracks.contact, run.solver.cracks.time,
@@ -207,6 +209,6 @@ def test_injection_stops_at_the_boundary_only_for_cracks_it_made(tmp_path):
             record.append(value)
 
     crack(0.5e-3)  # before injection: charging's crack
-    assert not run._fracture_at_boundary()
+    assert not fracture_at_boundary(run.world)
     crack(1.5e-3)  # during injection
-    assert run._fracture_at_boundary()
+    assert fracture_at_boundary(run.world)

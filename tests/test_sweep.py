@@ -262,6 +262,7 @@ def test_points_paths_and_stress_overrides():
 
 def test_a_failing_run_is_recorded_and_the_sweep_goes_on(client, tmp_path, monkeypatch):
     from grainfrac import simulation
+    from grainfrac.run import RunFailed
     from grainfrac.studies.sweep import PlannedRun, SweepPlan, SweepPoint, collect, execute_run
 
     plan = plan_sweep({**SWEEP, "parameters": [{"path": "seed", "values": [7]}],
@@ -271,7 +272,7 @@ def test_a_failing_run_is_recorded_and_the_sweep_goes_on(client, tmp_path, monke
     # A physics failure (a GrainfracError) is data: failed.json, status "failed".
     with monkeypatch.context() as m:
         def blow_up(*args, **kwargs):
-            raise simulation.RunFailed("stage 2 (inject) stopped: non-finite velocity")
+            raise RunFailed("stage 2 (inject) stopped: non-finite velocity")
         m.setattr(simulation, "run_scenario", blow_up)
         assert execute_run(str(tmp_path / run.rel_dir), run.scenario)["status"] == "failed"
     failed = collect(plan, tmp_path)

@@ -20,3 +20,7 @@ class ConfigError(GrainfracError, ValueError):
 
 class GeometryError(GrainfracError):
     """A specimen could not be tessellated or meshed as requested."""
+
+
+class CheckpointError(GrainfracError):
+    """A checkpoint cannot be read: an old format, another format version, or damaged."""

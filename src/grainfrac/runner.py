@@ -15,8 +15,8 @@ from typing import Any
 from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
+from grainfrac.run import Progress as RunProgress
 from grainfrac.scenario import Scenario, hs_only, hybrid, load_scenario, resolved_dict
-from grainfrac.simulation import Progress as RunProgress
 from grainfrac.simulation import run_scenario
 
 DEMO_RUNS = ("hs-only", "hybrid")

@@ -12,12 +12,6 @@ from grainfrac.analysis.breakdown import (
     max_drop_rate,
     pressure_drop_after_peak,
 )
-from grainfrac.analysis.fields import (
-    major_principal_stress,
-    minor_principal_stress,
-    ring_mean_tangential_stress,
-    tangential_stress,
-)
 from grainfrac.analysis.fractures import (
     CONNECT_FACTOR,
     FracturePath,
@@ -33,6 +27,12 @@ from grainfrac.analysis.fractures import (
     tortuosity,
 )
 from grainfrac.analysis.rundir import analyse_run
+from grainfrac.physics.fields import (
+    major_principal_stress,
+    minor_principal_stress,
+    ring_mean_tangential_stress,
+    tangential_stress,
+)
 
 __all__ = [
     "analyse_run",

@@ -297,7 +297,12 @@ def _points_along(key: tuple[int, int], grain: int, ring: np.ndarray, seg_points
     return _oriented(u, v, seg_points) if forward else _oriented(v, u, seg_points)
 
 
-def _hex_lattice(bounds: tuple[float, float, float, float], spacing: float) -> np.ndarray:
+def hex_lattice(bounds: tuple[float, float, float, float], spacing: float) -> np.ndarray:
+    """Points of the hexagonal lattice of ``spacing`` that cover ``bounds``
+    (xmin, ymin, xmax, ymax), with a margin of one spacing in x.
+
+    Grain interiors are meshed on it, and so is the SCDA plug
+    (:func:`grainfrac.physics.scda.scda_fill`)."""
     xmin, ymin, xmax, ymax = bounds
     dy = spacing * math.sqrt(3.0) / 2
     # Anchored to the global origin so neighbouring grains see one lattice.
@@ -312,7 +317,7 @@ def _hex_lattice(bounds: tuple[float, float, float, float], spacing: float) -> n
 def _triangulate_grain(ring_xy: np.ndarray, zone_size: float) -> tuple[np.ndarray, np.ndarray]:
     """Triangles of one grain: boundary points first, interior lattice points after."""
     polygon = shapely.Polygon(ring_xy)
-    lattice = _hex_lattice(polygon.bounds, zone_size)
+    lattice = hex_lattice(polygon.bounds, zone_size)
     inside = shapely.contains_xy(polygon, lattice[:, 0], lattice[:, 1])
     lattice = lattice[inside]
     if len(lattice):

@@ -19,13 +19,7 @@ import numpy as np
 from grainfrac.assembly import GrainAssembly
 from grainfrac.io.files import write_atomic, write_text
 from grainfrac.io.vtk import _xyz, contacts_mesh, grains_mesh
-
-
-def contact_opening(assembly: GrainAssembly, u: np.ndarray) -> np.ndarray:
-    """Normal opening (m, positive when the faces separate) of every sub-contact."""
-    mesh = assembly.mesh
-    du = u[mesh.contact_nodes[:, 1]] - u[mesh.contact_nodes[:, 0]]
-    return np.sum(du * mesh.contact_normal, axis=1)
+from grainfrac.physics.kinematics import contact_opening
 
 
 def _stress_tensor(stress: np.ndarray) -> np.ndarray:

@@ -23,9 +23,10 @@ from grainfrac.labtests.formulas import (
     plane_strain_to_isotropic,
     slope_between,
 )
-from grainfrac.labtests.platens import LoadingCurve, PlatenTest, closing_platen, first_peak
+from grainfrac.labtests.platens import PlatenTest, closing_platen
 from grainfrac.loading.boundary import Loads
 from grainfrac.physics.model import MechanicalModel
+from grainfrac.stages.platen import LoadingCurve, first_peak
 from grainfrac.units import GPA, MM, MPA
 
 # UCS: E (tangent) and nu are fitted between these fractions of the UCS (paper: at 50 %).

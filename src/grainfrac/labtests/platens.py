@@ -1,8 +1,9 @@
-"""Quasi-static platen loading to failure: the engine of UCS, BTS and NSCB.
+"""Specimens between platens: the set-up of UCS, BTS and NSCB.
 
 Rigid, frictionless platens (penalty contact, :class:`~grainfrac.loading.boundary.Platen`)
-close at a constant speed; the load they carry is sampled every few hundred
-steps until the specimen has failed (see :class:`~grainfrac.labtests.config.LoadingSpec`).
+are placed on the specimen here; the loading itself is the
+:class:`~grainfrac.stages.platen.PlatenLoading` stage, run by the driver
+(see :class:`~grainfrac.labtests.config.LoadingSpec`).
 """
 
 from __future__ import annotations
@@ -17,9 +18,10 @@ from grainfrac.labtests.config import LoadingSpec
 from grainfrac.loading.boundary import Loads, Platen
 from grainfrac.physics.model import MechanicalModel, build_mechanical_model
 from grainfrac.physics.solver import MechanicsSolver
+from grainfrac.stages.driver import Driver, Hooks
+from grainfrac.stages.platen import LoadingCurve, PlatenLoading
+from grainfrac.stages.world import World
 from grainfrac.units import MM
-
-RAMP_SAMPLES = 20  # samples over which the platen speed ramps up from zero
 
 
 def penalty_stiffness(assembly: GrainAssembly, model: MechanicalModel,
@@ -45,44 +47,6 @@ def closing_platen(assembly: GrainAssembly, model: MechanicalModel, nodes: np.nd
     position = float(y.max() if side > 0 else y.min())
     return Platen(np.asarray(nodes, dtype=np.int64), 1, side, position, -side * speed,
                   penalty_stiffness(assembly, model, nodes))
-
-
-@dataclass
-class LoadingCurve:
-    """Samples of a platen test, SI units.
-
-    ``load`` is the compressive force the loading platen carries (N) and
-    ``closure`` how far it has moved towards the specimen (m) (both platens for
-    two-platen tests). ``extra`` holds the test's own monitors.
-    """
-
-    time: list[float] = field(default_factory=list)
-    closure: list[float] = field(default_factory=list)
-    load: list[float] = field(default_factory=list)
-    n_cracks: list[int] = field(default_factory=list)
-    extra: dict[str, list[float]] = field(default_factory=dict)
-
-    def array(self, name: str) -> np.ndarray:
-        if name in self.extra:
-            return np.asarray(self.extra[name], dtype=float)
-        return np.asarray(getattr(self, name), dtype=float)
-
-
-def first_peak(load: np.ndarray, drop_fraction: float, persist: int = 2) -> tuple[int, bool]:
-    """Index of the first peak: the running maximum before the load first stays
-    ``drop_fraction`` below it for ``persist`` samples in a row. Returns
-    ``(index, found)``; without such a fall it is the overall maximum with
-    ``found = False``."""
-    load = np.asarray(load, dtype=float)
-    if len(load) == 0:
-        return 0, False
-    below = load < (1.0 - drop_fraction) * np.maximum.accumulate(load)
-    run = np.convolve(below.astype(int), np.ones(persist, dtype=int), mode="full")[:len(load)]
-    fallen = np.nonzero(run >= persist)[0]
-    if len(fallen) == 0:
-        return int(np.argmax(load)), False
-    end = int(fallen[0]) - persist + 1
-    return int(np.argmax(load[:end])), True
 
 
 @dataclass
@@ -114,50 +78,27 @@ class PlatenTest:
         solver = MechanicsSolver(model, loads)
         return cls(assembly, model, solver, loading, size, dict(monitors or {}))
 
-    def load(self) -> float:
-        """Mean compressive force of the loading platens (N)."""
-        return float(np.mean([p.side * p.reaction for p in self.loading]))
-
-    def closure(self, start: list[float]) -> float:
-        return float(sum(p.side * (s - p.position) for p, s in zip(self.loading, start,
-                                                                    strict=True)))
+    def loading_stage(self, spec: LoadingSpec) -> PlatenLoading:
+        """The platen-loading stage of this test as ``spec`` (resolved: no unset field) says."""
+        return PlatenLoading(
+            self.loading, self.size, speed=spec.platen_speed_mm_per_s * MM,
+            sample_steps=spec.sample_steps, stop_fraction=spec.stop_fraction,
+            peak_drop_fraction=spec.peak_drop_fraction, post_peak_factor=spec.post_peak_factor,
+            max_strain=spec.max_strain, monitors=self.monitors)
 
     def run(self, spec: LoadingSpec, progress: Callable[[LoadingCurve], None] | None = None,
             ) -> tuple[LoadingCurve, str]:
-        """Load to failure as ``spec`` (resolved: no unset field) says; return the
-        curve and why it stopped."""
-        speed = spec.platen_speed_mm_per_s * MM
-        start = [p.position for p in self.loading]
-        curve = LoadingCurve(extra={name: [] for name in self.monitors})
-        s = self.solver
-        peak = 0.0
-        peak_closure = None
-        max_closure = spec.max_strain * self.size
-        sample = 0
-        while True:
-            # A sudden start sends a stress wave that reads as an early peak: ramp up.
-            ramp = min(1.0, (sample + 1) / RAMP_SAMPLES)
-            for p in self.loading:
-                p.velocity = -p.side * speed * ramp
-            sample += 1
-            s.cycle(spec.sample_steps)
-            load, closure = self.load(), self.closure(start)
-            curve.time.append(s.time)
-            curve.closure.append(closure)
-            curve.load.append(load)
-            curve.n_cracks.append(len(s.cracks.contact))
-            for name, monitor in self.monitors.items():
-                curve.extra[name].append(float(monitor(s)))
-            if progress is not None:
-                progress(curve)
-            peak = max(peak, load)
-            if load < spec.stop_fraction * peak:
-                return curve, f"load fell below {spec.stop_fraction:g} x peak"
-            if peak_closure is None:
-                index, found = first_peak(curve.load, spec.peak_drop_fraction)
-                if found:
-                    peak_closure = curve.closure[index]
-            elif closure >= spec.post_peak_factor * peak_closure:
-                return curve, f"closure reached {spec.post_peak_factor:g} x closure at peak"
-            if closure >= max_closure:
-                return curve, f"closure reached max_strain {spec.max_strain:g} x size"
+        """Load to failure on the driver; return the curve and why it stopped.
+        ``progress(curve)`` is called after every sample."""
+        stage = self.loading_stage(spec)
+        Driver([stage], World(self.assembly, self.solver), _CurveProgress(progress)).execute()
+        return stage.curve, stage.state.stop_reason
+
+
+class _CurveProgress(Hooks):
+    def __init__(self, progress: Callable[[LoadingCurve], None] | None):
+        self.progress = progress
+
+    def after_chunk(self, stage: PlatenLoading) -> None:
+        if self.progress is not None:
+            self.progress(stage.curve)

@@ -21,7 +21,7 @@ from grainfrac.assembly import GrainAssembly, build_assembly
 from grainfrac.io.files import write_csv, write_json, write_toml
 from grainfrac.labtests.config import LabTestConfig
 from grainfrac.labtests.mechanical import REDUCERS, build_test
-from grainfrac.labtests.platens import LoadingCurve
+from grainfrac.stages.platen import LoadingCurve
 from grainfrac.units import MM, MPA
 
 CURVE_COLUMNS = ["time_s", "platen_closure_mm", "load_kN", "n_cracks"]

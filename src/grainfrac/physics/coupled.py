@@ -17,9 +17,9 @@ import numpy as np
 import scipy.sparse as sp
 
 from grainfrac.assembly import GrainAssembly
-from grainfrac.io.snapshots import contact_opening
 from grainfrac.loading.boundary import normal_pressure_forces
 from grainfrac.physics import flow
+from grainfrac.physics.kinematics import contact_opening
 from grainfrac.physics.solver import (
     MechanicsSolver,
     NumericalBlowUp,

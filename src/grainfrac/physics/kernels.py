@@ -18,7 +18,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
+
+from grainfrac.physics.elements import tetrahedron, triangle
 
 # Contact status codes (also the ``mode`` of a crack).
 INTACT = 0
@@ -27,103 +29,26 @@ SHEAR = 2
 
 
 # -- elements -------------------------------------------------------------------------
-@njit(cache=True, inline="always")
-def shear_component(d, i, j):
-    """Voigt index of the shear component (i < j): 2 in 2D; yz 3, xz 4, xy 5 in 3D."""
-    return d + (d * (d - 1)) // 2 - (i + j)
-
-
-@njit(cache=True)
-def elastic_strain(u, elements, state, e, strain):
-    """Elastic strain of element ``e`` into ``strain`` (Voigt, engineering shear).
-
-    eps = B u - eps0 - e_x I over the model's d axes, where ``initial_strain`` eps0
-    lets a body inserted into a loaded specimen start stress-free and the isotropic
-    ``eigenstrain`` e_x drives SCDA expansion.
-    """
-    grad = elements.grad
-    d = grad.shape[2]
-    for i in range(d):
-        strain[i] = -state.initial_strain[e, i] - state.eigenstrain[e]
-    for s in range(d, strain.shape[0]):
-        strain[s] = -state.initial_strain[e, s]
-    for k in range(grad.shape[1]):
-        n = elements.cells[e, k]
-        for i in range(d):
-            strain[i] += grad[e, k, i] * u[n, i]
-        for i in range(d):
-            for j in range(i + 1, d):
-                s = shear_component(d, i, j)
-                strain[s] += grad[e, k, j] * u[n, i] + grad[e, k, i] * u[n, j]
-
-
-@njit(cache=True)
-def hooke_stress(lam, mu, strain, d, stress):
-    """Isotropic stress of a strain (Voigt); in 2D also the plane-strain sigma_zz.
-
-    sigma = lam tr(eps) I + 2 mu eps. Returns ``lam tr(eps)``.
-    """
-    tr = strain[0]
-    for i in range(1, d):
-        tr += strain[i]
-    tr *= lam
-    for i in range(d):
-        stress[i] = tr + 2.0 * mu * strain[i]
-    for s in range(d, strain.shape[0]):
-        stress[s] = mu * strain[s]
-    if d == 2:
-        stress[3] = tr  # plane strain: eps_zz = 0
-    return tr
-
-
 @njit(cache=True)
 def element_forces(nodes, elements, state, force):
-    """Add internal forces of linear simplices to ``force``; store element stresses.
+    """Add the cells' internal forces to ``force`` and store their stresses.
 
-    f_a = -V B_a^T sigma with V the cell measure (area x thickness in 2D).
+    The element kernel of the model's dimension does the work
+    (:func:`grainfrac.physics.elements.triangle.internal_forces`, plane strain, or
+    :func:`grainfrac.physics.elements.tetrahedron.internal_forces`).
     """
-    grad = elements.grad
-    d = grad.shape[2]
-    n_strain = d * (d + 1) // 2
-    strain = np.empty(n_strain)
-    sigma = np.empty(state.stress.shape[1])
-    tensor = np.empty((d, d))
-    u = nodes.u
-    for e in range(elements.cells.shape[0]):
-        elastic_strain(u, elements, state, e, strain)
-        hooke_stress(elements.lam[e], elements.mu[e], strain, d, sigma)
-        for s in range(sigma.shape[0]):
-            state.stress[e, s] = sigma[s]
-        for i in range(d):
-            tensor[i, i] = sigma[i]
-            for j in range(i + 1, d):
-                tensor[i, j] = sigma[shear_component(d, i, j)]
-                tensor[j, i] = tensor[i, j]
-        vol = elements.measure[e]
-        for k in range(grad.shape[1]):
-            n = elements.cells[e, k]
-            for i in range(d):
-                f = grad[e, k, 0] * tensor[i, 0]
-                for j in range(1, d):
-                    f += grad[e, k, j] * tensor[i, j]
-                force[n, i] -= vol * f
+    if elements.grad.shape[2] == 2:
+        triangle.internal_forces(nodes.u, elements, state, force)
+    else:
+        tetrahedron.internal_forces(nodes.u, elements, state, force)
 
 
 @njit(cache=True)
 def element_strain_energy(u, elements, state):
-    """Elastic strain energy stored in the elements (J)."""
-    d = elements.grad.shape[2]
-    strain = np.empty(d * (d + 1) // 2)
-    sigma = np.empty(state.stress.shape[1])
-    total = 0.0
-    for e in range(elements.cells.shape[0]):
-        elastic_strain(u, elements, state, e, strain)
-        hooke_stress(elements.lam[e], elements.mu[e], strain, d, sigma)
-        w = 0.0
-        for s in range(strain.shape[0]):
-            w += sigma[s] * strain[s]
-        total += 0.5 * w * elements.measure[e]
-    return total
+    """Elastic strain energy stored in the cells (J)."""
+    if elements.grad.shape[2] == 2:
+        return triangle.strain_energy(u, elements, state)
+    return tetrahedron.strain_energy(u, elements, state)
 
 
 # -- contacts -------------------------------------------------------------------------
@@ -244,8 +169,8 @@ def relative_normal(w, a, b, frame, c):
 
 
 @njit(cache=True)
-def contact_forces(nodes, contacts, state, dt, allow_failure, failed_now):
-    """Add contact spring forces and fluid pressure forces to ``nodes.force``.
+def contact_range(nodes, contacts, state, dt, allow_failure, first, stop, out, failed_now):
+    """Advance sub-contacts ``first .. stop - 1`` one step.
 
     Relative displacement of the second node with respect to the first:
     opening ``u_n = (u_b - u_a).n - offset``; shear increment along each tangent
@@ -254,74 +179,167 @@ def contact_forces(nodes, contacts, state, dt, allow_failure, failed_now):
     plug inserted after loading). The trial shear vector ``tau + ks du_s`` goes to
     :func:`contact_law` as its magnitude; where the law changes the magnitude the
     vector keeps its direction. A fluid pressure ``p`` pushes the two faces apart
-    (force ``p A`` on each). Returns the frictional work of this step (J), the
-    number of contacts that broke, the work of the fluid pressure on the faces
-    (J, p A du_n) and the bond energy of this step (J: dissipated by softening and
-    released at breaks), which is also added per contact to ``released``.
+    (force ``p A`` on each). The two shear components are scalars (the second is
+    zero in 2D): loops over a runtime number of tangents made the kernel 1.5 x slower.
+
+    With ``out = None`` the forces are added to ``nodes.force`` (serial), broken
+    contacts listed in ``failed_now``, and the step's friction work, number of
+    breaks, fluid pressure work (p A du_n) and bond energy (J: softening plus the
+    energy released at breaks, also added to ``released``) are returned. With
+    ``out = (on_second, books, broke)`` each contact's force on its second node,
+    its three works and whether it broke are stored instead (parallel chunks).
     """
     u, v, force = nodes.u, nodes.v, nodes.force
-    frame = contacts.frame
-    d = u.shape[1]
-    n_tangents = d - 1
-    trial = np.empty(n_tangents)
+    pairs, frame, area_of, kn, ks_of = (contacts.nodes, contacts.frame, contacts.area,
+                                        contacts.kn, contacts.ks)
+    tau, sigma_n, bonded, status = state.tau, state.sigma_n, state.bonded, state.status
+    damage, plastic, released = state.damage, state.plastic_opening, state.released
+    three = u.shape[1] == 3
     friction_work = 0.0
     fluid_work = 0.0
     bond_work = 0.0
     n_failed = 0
-    for c in range(contacts.nodes.shape[0]):
-        a = contacts.nodes[c, 0]
-        b = contacts.nodes[c, 1]
-        u_n = relative_normal(u, a, b, frame, c) - state.opening_offset[c]
-        du_n = relative_normal(v, a, b, frame, c) * dt
-        ks = contacts.ks[c]
-        for t in range(n_tangents):
-            dv = (v[b, 0] - v[a, 0]) * frame[c, 1 + t, 0]
-            for i in range(1, d):
-                dv += (v[b, i] - v[a, i]) * frame[c, 1 + t, i]
-            trial[t] = state.tau[c, t] + ks * (dv * dt)
-        if n_tangents == 1:
-            magnitude = abs(trial[0])
-        else:
-            sq = 0.0
-            for t in range(n_tangents):
-                sq += trial[t] * trial[t]
-            magnitude = math.sqrt(sq)
+    for c in range(first, stop):
+        a = pairs[c, 0]
+        b = pairs[c, 1]
+        dux = u[b, 0] - u[a, 0]
+        duy = u[b, 1] - u[a, 1]
+        dvx = v[b, 0] - v[a, 0]
+        dvy = v[b, 1] - v[a, 1]
+        u_n = dux * frame[c, 0, 0] + duy * frame[c, 0, 1]
+        v_n = dvx * frame[c, 0, 0] + dvy * frame[c, 0, 1]
+        v_s1 = dvx * frame[c, 1, 0] + dvy * frame[c, 1, 1]
+        v_s2 = 0.0
+        if three:
+            dvz = v[b, 2] - v[a, 2]
+            u_n += (u[b, 2] - u[a, 2]) * frame[c, 0, 2]
+            v_n += dvz * frame[c, 0, 2]
+            v_s1 += dvz * frame[c, 1, 2]
+            v_s2 = dvx * frame[c, 2, 0] + dvy * frame[c, 2, 1] + dvz * frame[c, 2, 2]
+        u_n -= state.opening_offset[c]
+        ks = ks_of[c]
+        tau1 = tau[c, 0] + ks * (v_s1 * dt)
+        tau2 = tau[c, 1] + ks * (v_s2 * dt) if three else 0.0
+        magnitude = math.sqrt(tau1 * tau1 + tau2 * tau2) if three else abs(tau1)
         pressure = state.pressure[c]
-        area = contacts.area[c]
-        fluid_work += pressure * area * du_n
+        area = area_of[c]
+        w_fluid = pressure * area * (v_n * dt)
         sn, shear, new_status, w_slip, e_rel, w_soft, d_c, up_c = contact_law(
-            u_n, magnitude, contacts.kn[c], ks, contacts.tan_phi[c], contacts.cohesion[c],
-            contacts.tensile_strength[c], state.bonded[c], allow_failure, state.damage[c],
-            state.plastic_opening[c], contacts.opening_to_fail[c], contacts.slip_to_fail[c],
+            u_n, magnitude, kn[c], ks, contacts.tan_phi[c], contacts.cohesion[c],
+            contacts.tensile_strength[c], bonded[c], allow_failure, damage[c], plastic[c],
+            contacts.opening_to_fail[c], contacts.slip_to_fail[c],
         )
         if shear != magnitude:
             # Keep the direction: the unit vector first, so in 2D tau = +-shear exactly.
-            for t in range(n_tangents):
-                trial[t] = shear * (trial[t] / magnitude) if shear != 0.0 else 0.0
-        state.damage[c] = d_c
-        state.plastic_opening[c] = up_c
+            if shear == 0.0:
+                tau1 = 0.0
+                tau2 = 0.0
+            else:
+                tau1 = shear * (tau1 / magnitude)
+                tau2 = shear * (tau2 / magnitude)
+        damage[c] = d_c
+        plastic[c] = up_c
         # A bond's energy: what softening dissipated, plus what its break released.
         bond = (w_soft + e_rel) * area
-        state.released[c] += bond
-        bond_work += bond
+        released[c] += bond
         if new_status != INTACT:
-            state.bonded[c] = False
-            state.status[c] = new_status
-            failed_now[n_failed] = c
-            n_failed += 1
-        state.sigma_n[c] = sn
-        for t in range(n_tangents):
-            state.tau[c, t] = trial[t]
-        friction_work += w_slip * area
+            bonded[c] = False
+            status[c] = new_status
+        sigma_n[c] = sn
+        tau[c, 0] = tau1
         # Traction on face b (first grain pushes b along +n when compressed).
         fn = (sn + pressure) * area
-        for i in range(d):
-            f = fn * frame[c, 0, i]
-            for t in range(n_tangents):
-                f -= (trial[t] * area) * frame[c, 1 + t, i]
-            force[b, i] += f
-            force[a, i] -= f
+        fs1 = tau1 * area
+        fx = fn * frame[c, 0, 0] - fs1 * frame[c, 1, 0]
+        fy = fn * frame[c, 0, 1] - fs1 * frame[c, 1, 1]
+        fz = 0.0
+        if three:
+            tau[c, 1] = tau2
+            fs2 = tau2 * area
+            fx -= fs2 * frame[c, 2, 0]
+            fy -= fs2 * frame[c, 2, 1]
+            fz = fn * frame[c, 0, 2] - fs1 * frame[c, 1, 2] - fs2 * frame[c, 2, 2]
+        if out is None:
+            fluid_work += w_fluid
+            bond_work += bond
+            friction_work += w_slip * area
+            if new_status != INTACT:
+                failed_now[n_failed] = c
+                n_failed += 1
+            if three:
+                force[b, 2] += fz
+                force[a, 2] -= fz
+            force[b, 0] += fx
+            force[b, 1] += fy
+            force[a, 0] -= fx
+            force[a, 1] -= fy
+        else:
+            on_second, books, broke = out
+            on_second[c, 0] = fx
+            on_second[c, 1] = fy
+            if three:
+                on_second[c, 2] = fz
+            books[c, 0] = w_slip * area
+            books[c, 1] = w_fluid
+            books[c, 2] = bond
+            broke[c] = new_status != INTACT
     return friction_work, n_failed, fluid_work, bond_work
+
+
+@njit(cache=True)
+def contact_forces(nodes, contacts, state, dt, allow_failure, failed_now):
+    """Add every sub-contact's spring and fluid pressure forces to ``nodes.force``.
+
+    See :func:`contact_range`. Returns the frictional work of this step (J), the
+    number of contacts that broke (listed in ``failed_now``), the work of the fluid
+    pressure on the faces (J) and the bond energy of this step (J).
+    """
+    return contact_range(nodes, contacts, state, dt, allow_failure, 0,
+                         contacts.nodes.shape[0], None, failed_now)
+
+
+# Sub-contacts per parallel task: the call per task costs what ~1 contact update does.
+CONTACT_CHUNK = 256
+
+
+@njit(cache=True, parallel=True)
+def contact_updates(nodes, contacts, state, dt, allow_failure, out):
+    """Every sub-contact's update in parallel chunks (:func:`contact_range`).
+
+    ``out = (on_second, books, broke)``: the force on each second node (for the
+    gather), the step's friction / fluid / bond work per contact and whether it
+    broke; the caller sums and lists them in contact order. (Chunks call a serial
+    function: numba dropped the state writes of an inlined update inside ``prange``.)
+    """
+    n = contacts.nodes.shape[0]
+    for j in prange((n + CONTACT_CHUNK - 1) // CONTACT_CHUNK):
+        contact_range(nodes, contacts, state, dt, allow_failure, j * CONTACT_CHUNK,
+                      min(n, (j + 1) * CONTACT_CHUNK), out, out[2])
+
+
+@njit(cache=True, parallel=True)
+def gather_forces(force, adjacency, per_node, on_second):
+    """Each node's force from its cells' shares and its contacts, in parallel.
+
+    A node sums its cells in ascending cell order, then its contacts in ascending
+    contact order: the order in which the serial kernels scatter into it, so the
+    forces are bit for bit those of the serial step for any number of threads.
+    """
+    d = force.shape[1]
+    k = per_node.shape[1]
+    for n in prange(force.shape[0]):
+        for i in range(d):
+            total = 0.0
+            for j in range(adjacency.cell_ptr[n], adjacency.cell_ptr[n + 1]):
+                slot = adjacency.cell_slot[j]
+                total -= per_node[slot // k, slot % k, i]
+            for j in range(adjacency.contact_ptr[n], adjacency.contact_ptr[n + 1]):
+                slot = adjacency.contact_slot[j]
+                if slot % 2 == 1:
+                    total += on_second[slot // 2, i]
+                else:
+                    total -= on_second[slot // 2, i]
+            force[n, i] = total
 
 
 def contact_strain_energy(sigma_n, tau, kn, ks, area) -> float:
@@ -388,6 +406,42 @@ def update_nodes(nodes, loads, dt, alpha):
     return w_ext, w_damp, unbalanced, vmax
 
 
+@njit(cache=True, parallel=True)
+def update_nodes_parallel(nodes, loads, dt, alpha):
+    """:func:`update_nodes` over the nodes in parallel: the same motion bit for bit; the
+    work sums are reduced per thread, so they agree with the serial ones to round-off."""
+    u, v, force = nodes.u, nodes.v, nodes.force
+    external, fixed, mass = loads.external, loads.fixed, loads.mass
+    w_ext = 0.0
+    w_damp = 0.0
+    unbalanced = 0.0
+    vmax = 0.0
+    for n in prange(u.shape[0]):
+        for i in range(u.shape[1]):
+            f = force[n, i] + external[n, i]
+            vn = v[n, i]
+            support = 0.0
+            damp = 0.0
+            free = 0.0
+            if fixed[n, i]:
+                vn = loads.prescribed_velocity[n, i]
+                support = f * vn * dt
+            else:
+                free = abs(f)
+                fd = -alpha * abs(f) * ((vn > 0.0) - (vn < 0.0))
+                vn = vn + dt * (f + fd) / mass[n]
+                damp = fd * vn * dt
+            v[n, i] = vn
+            w_ext += external[n, i] * vn * dt - support
+            w_damp -= damp
+            unbalanced += free
+            u[n, i] += dt * vn
+            # NaN compares false: count it as a runaway velocity.
+            speed = abs(vn) if abs(vn) == abs(vn) else np.inf
+            vmax = max(vmax, speed)
+    return w_ext, w_damp, unbalanced, vmax
+
+
 @njit(cache=True)
 def platen_forces(u, platens, p, force):
     """Frictionless rigid platen ``p``: penalty force on nodes that pass its plane.
@@ -414,7 +468,7 @@ def platen_forces(u, platens, p, force):
 # -- the explicit loop ---------------------------------------------------------------------
 @njit(cache=True)
 def run_steps(control, nodes, loads, elements, element_state, contacts, contact_state,
-              platens, pores, energies, cracks):
+              adjacency, platens, pores, energies, cracks):
     """Advance ``control.n_steps`` explicit steps without returning to Python.
 
     ``energies`` (a record of :data:`grainfrac.physics.records.ENERGY_DTYPE`)
@@ -427,20 +481,39 @@ def run_steps(control, nodes, loads, elements, element_state, contacts, contact_
     caught where it starts. The pores listed by ``pores`` (the free pores during
     injection, else none) have a fluid pressure that follows their void at every
     step (:func:`pore_spring_pressure`).
+
+    With ``control.parallel`` the cells, contacts and nodes are updated on all of
+    numba's threads: cells and contacts write their forces per cell and per contact,
+    and each node gathers them through ``adjacency`` in the serial order, so the
+    motion, stresses and cracks are bit for bit those of the serial path; only the
+    energy books' sums over nodes are reduced in another order (round-off).
     """
     dt = control.dt
     d = nodes.u.shape[1]
     book = energies[0]
     n_failed_total = 0
-    failed_now = np.empty(contacts.nodes.shape[0], dtype=np.int64)
+    n_contacts = contacts.nodes.shape[0]
+    failed_now = np.empty(n_contacts, dtype=np.int64)
+    parallel = control.parallel
+    if parallel:
+        per_node = np.empty((elements.cells.shape[0], elements.cells.shape[1], d))
+        on_second = np.empty((n_contacts, d))
+        contact_books = np.empty((n_contacts, 3))
+        broke = np.zeros(n_contacts, dtype=np.bool_)
     rate = element_state.eigenstrain_rate
     expanding = np.flatnonzero(rate)
     for step in range(control.n_steps):
         for i in range(expanding.shape[0]):
             e = expanding[i]
             element_state.eigenstrain[e] += rate[e] * dt
-        nodes.force[:, :] = 0.0
-        element_forces(nodes, elements, element_state, nodes.force)
+        if parallel:
+            if d == 2:
+                triangle.node_forces(nodes.u, elements, element_state, per_node)
+            else:
+                tetrahedron.node_forces(nodes.u, elements, element_state, per_node)
+        else:
+            nodes.force[:, :] = 0.0
+            element_forces(nodes, elements, element_state, nodes.force)
         stress = element_state.stress
         for i in range(expanding.shape[0]):
             e = expanding[i]
@@ -450,8 +523,24 @@ def run_steps(control, nodes, loads, elements, element_state, contacts, contact_
             book.expansion_work -= elements.measure[e] * trace * rate[e] * dt
         if pores.contact.shape[0] > 0:
             pore_spring_pressure(nodes.u, contacts, pores, contact_state.pressure)
-        w_fric, n_failed, w_fluid, w_bond = contact_forces(
-            nodes, contacts, contact_state, dt, control.allow_failure, failed_now)
+        if parallel:
+            contact_updates(nodes, contacts, contact_state, dt, control.allow_failure,
+                            (on_second, contact_books, broke))
+            gather_forces(nodes.force, adjacency, per_node, on_second)
+            w_fric = 0.0
+            w_fluid = 0.0
+            w_bond = 0.0
+            n_failed = 0
+            for c in range(n_contacts):
+                w_fluid += contact_books[c, 1]
+                w_bond += contact_books[c, 2]
+                w_fric += contact_books[c, 0]
+                if broke[c]:
+                    failed_now[n_failed] = c
+                    n_failed += 1
+        else:
+            w_fric, n_failed, w_fluid, w_bond = contact_forces(
+                nodes, contacts, contact_state, dt, control.allow_failure, failed_now)
         for i in range(n_failed):
             cracks.contact[n_failed_total] = failed_now[i]
             cracks.step[n_failed_total] = step
@@ -462,7 +551,10 @@ def run_steps(control, nodes, loads, elements, element_state, contacts, contact_
         for p in range(platens.axis.shape[0]):
             platens.position[p] += platens.velocity[p] * dt
             platens.reaction[p] = platen_forces(nodes.u, platens, p, nodes.force)
-        w_ext, w_damp, _, vmax = update_nodes(nodes, loads, dt, control.damping)
+        if parallel:
+            w_ext, w_damp, _, vmax = update_nodes_parallel(nodes, loads, dt, control.damping)
+        else:
+            w_ext, w_damp, _, vmax = update_nodes(nodes, loads, dt, control.damping)
         for p in range(platens.axis.shape[0]):
             ax = platens.axis[p]
             for i in range(platens.offsets[p], platens.offsets[p + 1]):

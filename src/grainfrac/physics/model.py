@@ -23,7 +23,7 @@ import numpy as np
 from grainfrac.geometry.mesh import Mesh
 from grainfrac.physics import elements as element_layer
 from grainfrac.physics.elements import element_row_sums, lame_parameters
-from grainfrac.physics.records import Contacts, Elements
+from grainfrac.physics.records import Adjacency, Contacts, Elements, build_adjacency
 
 if TYPE_CHECKING:  # the model needs no tessellation or materials code at run time
     from grainfrac.assembly import GrainAssembly
@@ -103,6 +103,11 @@ class MechanicalModel:
                         self.normal_stiffness, self.shear_stiffness, self.tan_friction,
                         self.cohesion, self.tensile_strength, self.opening_to_fail,
                         self.slip_to_fail)
+
+    @cached_property
+    def adjacency(self) -> Adjacency:
+        """Cells and sub-contacts of each node, for the parallel force gather."""
+        return build_adjacency(self.n_nodes, self.cells, self.contact_nodes)
 
     # 2D names the plane-strain code and its figures use.
     @property

@@ -34,6 +34,7 @@ class StepControl(NamedTuple):
     damping: float  # local damping coefficient alpha
     allow_failure: bool  # False holds intact bonds elastic
     velocity_limit: float  # m/s; beyond it the run has blown up
+    parallel: bool  # update cells, contacts and nodes on all of numba's threads
 
 
 class NodeState(NamedTuple):
@@ -61,6 +62,35 @@ class Elements(NamedTuple):
     measure: np.ndarray
     lam: np.ndarray
     mu: np.ndarray
+
+
+class Adjacency(NamedTuple):
+    """What touches each node, in the order the serial kernels add to it (CSR).
+
+    Node ``n``'s cells are ``cell_slot[cell_ptr[n]:cell_ptr[n + 1]]`` as ``e (d + 1) + k``
+    (node ``k`` of cell ``e``), ascending ``e``; its sub-contacts are
+    ``contact_slot[contact_ptr[n]:contact_ptr[n + 1]]`` as ``2 c + side`` (side 1: the
+    node is the contact's second), ascending ``c``.
+    """
+
+    cell_ptr: np.ndarray
+    cell_slot: np.ndarray
+    contact_ptr: np.ndarray
+    contact_slot: np.ndarray
+
+
+def build_adjacency(n_nodes: int, cells: np.ndarray, contact_nodes: np.ndarray) -> Adjacency:
+    """The :class:`Adjacency` of a mesh (stable sorts keep cell and contact order)."""
+
+    def csr(owner: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        slot = np.argsort(owner, kind="stable").astype(np.int64)
+        ptr = np.zeros(n_nodes + 1, dtype=np.int64)
+        np.cumsum(np.bincount(owner, minlength=n_nodes), out=ptr[1:])
+        return ptr, slot
+
+    cell_ptr, cell_slot = csr(np.asarray(cells, dtype=np.int64).ravel())
+    contact_ptr, contact_slot = csr(np.asarray(contact_nodes, dtype=np.int64).ravel())
+    return Adjacency(cell_ptr, cell_slot, contact_ptr, contact_slot)
 
 
 class ElementState(NamedTuple):

@@ -35,7 +35,7 @@ from scipy.spatial import Delaunay
 from grainfrac.assembly import GrainAssembly
 from grainfrac.errors import GeometryError
 from grainfrac.geometry.mesh import contact_frame
-from grainfrac.geometry.meshing import _hex_lattice
+from grainfrac.geometry.meshing import hex_lattice
 from grainfrac.materials import ScdaRecipe
 from grainfrac.physics.model import MechanicalModel, build_mechanical_model, model_from_arrays
 from grainfrac.physics.records import Elements, ElementState
@@ -95,7 +95,7 @@ def scda_fill(assembly: GrainAssembly, recipe: ScdaRecipe) -> ScdaFill:
     zone = mesh.zone_size
     radius = outline.borehole_radius
     centre = np.asarray(outline.borehole_center)
-    lattice = _hex_lattice((centre[0] - radius, centre[1] - radius,
+    lattice = hex_lattice((centre[0] - radius, centre[1] - radius,
                             centre[0] + radius, centre[1] + radius), zone)
     r = np.hypot(*(lattice - centre).T)
     lattice = lattice[r < radius * math.cos(math.pi / len(ring_xy)) - 0.55 * zone]

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from grainfrac.errors import GrainfracError
@@ -176,9 +177,10 @@ class MechanicsSolver:
         platens = self._platen_set()
         n_new, done = kernels.run_steps(
             StepControl(int(n_steps), m.dt, self.damping, bool(self.allow_failure),
-                        float(self.velocity_limit)),
+                        float(self.velocity_limit), numba.get_num_threads() > 1),
             self.node_state(), NodeLoads(m.mass, ld.external, ld.fixed, ld.prescribed_velocity),
-            m.elements, self.element_state(), m.contacts, self.contact_state(), platens,
+            m.elements, self.element_state(), m.contacts, self.contact_state(), m.adjacency,
+            platens,
             self.pore_springs.record(), self.energies, self._crack_log,
         )
         ppos, preac = platens.position, platens.reaction

@@ -607,6 +607,7 @@ def execute_run(run_dir: str, scenario: dict[str, Any]) -> dict[str, Any]:
     numerical blow-up) is recorded in ``failed.json`` and returned as data; any
     other exception propagates, so that Dask retries the task.
     """
+    from grainfrac.run import checkpoint_path
     from grainfrac.simulation import run_scenario
 
     out = Path(run_dir)
@@ -615,7 +616,7 @@ def execute_run(run_dir: str, scenario: dict[str, Any]) -> dict[str, Any]:
     sc = validate(Scenario, scenario)
     recipe = sc.recipe()
     stored = _stored_config(out)
-    resume = ((out / "checkpoint" / "state.npz").is_file() and stored is not None
+    resume = (checkpoint_path(out).is_file() and stored is not None
               and _first_difference(_normal(stored), _normal(scenario)) is None)
     start = time.perf_counter()
     try:

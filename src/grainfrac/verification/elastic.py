@@ -46,11 +46,10 @@ import numpy as np
 from grainfrac.assembly import GrainAssembly, SpecimenConfig, build_assembly
 from grainfrac.errors import GrainfracError
 from grainfrac.io.config import validate
-from grainfrac.loading.boundary import normal_pressure_forces
-from grainfrac.loading.insitu import initialise_in_situ
 from grainfrac.materials import homogeneous_recipe
 from grainfrac.physics.model import build_mechanical_model
 from grainfrac.physics.solver import MechanicsSolver
+from grainfrac.stages import Driver, Equilibrate, World
 from grainfrac.units import MPA
 from grainfrac.verification.report import Comparison
 
@@ -133,21 +132,17 @@ def _borehole(assembly: GrainAssembly) -> tuple[np.ndarray, float]:
     return np.asarray(shape.borehole_center, dtype=float), float(shape.borehole_radius)
 
 
-def _equilibrate(solver: MechanicsSolver, ratio: float, max_steps: int) -> float:
-    solver.allow_failure = False
-    try:
-        achieved = solver.equilibrate(ratio=ratio, max_steps=max_steps)
-    finally:
-        solver.allow_failure = True
-    return achieved
-
-
-def _require_converged(achieved: float, ratio: float, solver: MechanicsSolver) -> None:
-    if not achieved < ratio:
+def equilibrated_slab(assembly: GrainAssembly, stage: Equilibrate) -> MechanicsSolver:
+    """The slab's mechanics after ``stage`` on the driver; raises if it did not settle."""
+    solver = MechanicsSolver(build_mechanical_model(assembly))
+    Driver([stage], World(assembly, solver)).execute()
+    achieved = stage.state.unbalanced_force_ratio
+    if not stage.state.converged:
         raise VerificationError(
-            f"no equilibrium: unbalanced-force ratio {achieved:.3g} > {ratio:.3g} "
+            f"no equilibrium: unbalanced-force ratio {achieved:.3g} > {stage.ratio:.3g} "
             f"after {solver.step_count} steps"
         )
+    return solver
 
 
 def wall_edges(assembly: GrainAssembly, u: np.ndarray, wall_normal_stress: float = 0.0
@@ -224,7 +219,7 @@ def kirsch(sigma_x: float = 2.5e6, sigma_y: float = 5.0e6, seed: int = 0, *,
            max_steps: int = 400_000) -> list[Comparison]:
     """Hoop stress around the borehole under far-field stress vs the Kirsch solution.
 
-    Loading: the production path, :func:`grainfrac.loading.insitu.initialise_in_situ`
+    Loading: the production path, the :class:`~grainfrac.stages.Equilibrate` stage
     (uniform normal tractions ``sigma_x`` on left/right, ``sigma_y`` on top/bottom,
     compressive Pa; default paper Table 6 case 2, 2.5 / 5 MPa), equilibrated to an
     unbalanced-force ratio ``ratio``.
@@ -272,10 +267,7 @@ def kirsch(sigma_x: float = 2.5e6, sigma_y: float = 5.0e6, seed: int = 0, *,
     """
     assembly = homogeneous_slab(seed, zone_size_mm)
     _, a = _borehole(assembly)
-    solver = MechanicsSolver(build_mechanical_model(assembly))
-    result = initialise_in_situ(solver, assembly.mesh, sigma_x, sigma_y, ratio=ratio,
-                                max_steps=max_steps)
-    _require_converged(result.unbalanced_force_ratio, ratio, solver)
+    solver = equilibrated_slab(assembly, Equilibrate(sigma_x, sigma_y, ratio, max_steps))
     sxx, syy = -sigma_x, -sigma_y
 
     rows: list[Comparison] = []
@@ -304,8 +296,8 @@ def lame(pressure: float = 10e6, seed: int = 0, *, zone_size_mm: float = 1.4,
          ratio: float = 1e-5, max_steps: int = 400_000) -> list[Comparison]:
     """Borehole wall displacement under internal pressure vs the Lame solution.
 
-    Loading: a pressure ``pressure`` (Pa) on the borehole wall
-    (:func:`grainfrac.loading.boundary.normal_pressure_forces`), no far field,
+    Loading: a pressure ``pressure`` (Pa) on the borehole wall (the
+    :class:`~grainfrac.stages.Equilibrate` stage's ``wall_pressure``), no far field,
     outer sides free and nothing fixed. The pressure on a closed wall has no
     net force or moment, so no rigid-body motion is driven.
 
@@ -340,10 +332,8 @@ def lame(pressure: float = 10e6, seed: int = 0, *, zone_size_mm: float = 1.4,
     assembly = homogeneous_slab(seed, zone_size_mm)
     mesh = assembly.mesh
     centre, a = _borehole(assembly)
-    solver = MechanicsSolver(build_mechanical_model(assembly))
-    solver.loads.external += normal_pressure_forces(mesh, "borehole", pressure)
-    achieved = _equilibrate(solver, ratio, max_steps)
-    _require_converged(achieved, ratio, solver)
+    solver = equilibrated_slab(assembly, Equilibrate(0.0, 0.0, ratio, max_steps,
+                                                     wall_pressure=pressure))
 
     nodes = mesh.node_sets["borehole"]
     rel = mesh.node_xy[nodes] - centre

@@ -181,13 +181,13 @@ from grainfrac.errors import GrainfracError
 from grainfrac.geometry import tessellation as tess
 from grainfrac.geometry.meshing import GrainMesh, mesh_grains
 from grainfrac.geometry.specimens import Outline, arc_points
-from grainfrac.io.snapshots import contact_opening
 from grainfrac.loading.boundary import normal_pressure_forces
-from grainfrac.loading.insitu import initialise_in_situ
 from grainfrac.physics import flow
 from grainfrac.physics.coupled import HydroMechanicalSolver
+from grainfrac.physics.kinematics import contact_opening
 from grainfrac.physics.model import build_mechanical_model
 from grainfrac.physics.solver import MechanicsSolver
+from grainfrac.stages import Driver, Equilibrate, Hooks, World
 from grainfrac.units import MM, MPA
 from grainfrac.verification.report import Comparison
 
@@ -302,6 +302,7 @@ class KGDConfig:
     compare_at: tuple[float, ...] = (0.5, 0.75, 1.0)  # fractions of the duration
     opening_threshold: float = 0.05  # tip: opening below this x opening at the well
     in_situ_ratio: float = 1e-5
+    in_situ_max_steps: int = 200_000
 
     @property
     def rate_2d(self) -> float:
@@ -527,10 +528,94 @@ def _step_ticks(config: KGDConfig, dt: float) -> np.ndarray:
     return np.unique(np.concatenate((ticks, extra))).astype(np.int64)
 
 
+@dataclass
+class KGDInjectionState:
+    start_time: float = 0.0
+    step: int = 0  # fluid steps done
+
+
+@dataclass
+class KGDInjection:
+    """Inject at ``run.rate_2d`` on the fluid-step grid of :func:`_step_ticks`, measuring
+    the fracture at the compared times (and every ``record_every`` fluid steps if > 0).
+
+    Begins from the confined slab: the wall load of the confinement goes (the
+    coupling applies the well pressure itself), the fluid starts at zero pressure
+    and the well at the confinement.
+    """
+
+    run: KGDRun
+    assembly: GrainAssembly
+    plane_c: np.ndarray
+    record_every: int = 0
+    kind: str = "inject"
+    periodic_snapshots: bool = False
+    state: KGDInjectionState = field(default_factory=KGDInjectionState)
+    # Set when the stage begins: openings and borehole void after the confinement,
+    # the mechanical step and the fluid-step grid in mechanical steps.
+    opening0: np.ndarray = field(init=False, repr=False)
+    well_void0: float = field(init=False, repr=False)
+    dt: float = field(init=False, repr=False)
+    ticks: np.ndarray = field(init=False, repr=False)
+    compare: set[int] = field(init=False, repr=False)
+
+    def begin(self, world: World) -> None:
+        config, mesh, mech = self.run.config, self.assembly.mesh, world.solver
+        self.state.start_time = mech.time
+        mech.loads.external -= normal_pressure_forces(mesh, "borehole", config.confinement)
+        self.opening0 = contact_opening(self.assembly, mech.u)
+        fluid = flow.FluidProperties(
+            viscosity=self.run.viscosity, bulk_modulus=config.fluid_bulk_modulus,
+            initial_aperture=config.aperture, residual_aperture=config.aperture,
+            maximum_aperture=1e-3,
+        )
+        network = flow.build_flow_network(mesh, well=True,
+                                          well_compressibility=1.0 / config.fluid_bulk_modulus)
+        hm = HydroMechanicalSolver(self.assembly, mech, network, fluid)
+        start = np.zeros(network.n_unknowns)
+        start[network.well_unknown] = config.confinement
+        self.well_void0 = hm.well_void()
+        hm.state = flow.initial_state(network, hm.aperture(), fluid, pressure=start,
+                                      well_volume=self.well_void0)
+        world.coupled = hm
+        world.injection_start_time = mech.time
+        self.dt = mech.model.dt
+        self.ticks = _step_ticks(config, self.dt)
+        self.compare = set(np.round(config.duration * np.asarray(config.compare_at)
+                                    / self.dt).astype(int))
+
+    def advance(self, world: World) -> None:
+        k = self.state.step + 1
+        ticks, dt = self.ticks, self.dt
+        world.coupled.advance(float(ticks[k] - ticks[k - 1]) * dt,
+                              self.run.rate_2d * self.run.config.thickness)
+        if int(ticks[k]) in self.compare or (self.record_every and k % self.record_every == 0):
+            self.run.states.append(_measure(self.run, self.assembly, self.plane_c,
+                                            self.opening0, self.well_void0, world.coupled,
+                                            ticks[k] * dt))
+        self.state.step = k
+
+    def finished(self) -> bool:
+        return self.state.step >= len(self.ticks) - 1
+
+    def fraction(self) -> float:
+        return self.state.step / (len(self.ticks) - 1)
+
+
+class _RequireConfinement(Hooks):
+    """Stops the run when the confinement did not equilibrate."""
+
+    def after_stage(self, stage) -> None:
+        if isinstance(stage, Equilibrate) and not stage.state.converged:
+            raise KGDError(f"confinement did not equilibrate: unbalanced-force ratio "
+                           f"{stage.state.unbalanced_force_ratio:.3g} after "
+                           f"{stage.state.steps} steps")
+
+
 def run_kgd(config: KGDConfig | None = None, seed: int = 0,
             record_every: int = 0) -> KGDRun:
-    """Build, confine and inject; measure at ``config.compare_at`` (and every ``record_every``
-    fluid steps if > 0).
+    """Build, confine and inject on the driver; measure at ``config.compare_at`` (and
+    every ``record_every`` fluid steps if > 0).
     """
     config = config or KGDConfig()
     assembly, plane = kgd_assembly(config, seed)
@@ -545,44 +630,16 @@ def run_kgd(config: KGDConfig | None = None, seed: int = 0,
 
     # Confinement, the borehole at the same pressure: uniform stress, so start from
     # the uniform plane-strain strain field and let the contacts settle.
-    model = build_mechanical_model(assembly)
-    mech = MechanicsSolver(model)
+    mech = MechanicsSolver(build_mechanical_model(assembly))
     lam = e * nu / ((1 + nu) * (1 - 2 * nu))
     shear = e / (2 * (1 + nu))
     mech.u[:] = -config.confinement / (2 * (lam + shear)) * mesh.node_xy
-    wall = normal_pressure_forces(mesh, "borehole", config.confinement)
-    mech.loads.external += wall
-    result = initialise_in_situ(mech, mesh, config.confinement, config.confinement,
-                                ratio=config.in_situ_ratio)
-    if not result.converged:
-        raise KGDError(f"confinement did not equilibrate: unbalanced-force ratio "
-                       f"{result.unbalanced_force_ratio:.3g} after {result.steps} steps")
-    mech.loads.external -= wall  # the coupled solver applies the well pressure itself
-    opening0 = contact_opening(assembly, mech.u)
-
-    fluid = flow.FluidProperties(
-        viscosity=run.viscosity, bulk_modulus=config.fluid_bulk_modulus,
-        initial_aperture=config.aperture, residual_aperture=config.aperture,
-        maximum_aperture=1e-3,
-    )
-    network = flow.build_flow_network(mesh, well=True,
-                                      well_compressibility=1.0 / config.fluid_bulk_modulus)
-    hm = HydroMechanicalSolver(assembly, mech, network, fluid)
-    start = np.zeros(network.n_unknowns)
-    start[network.well_unknown] = config.confinement
-    well_void0 = hm.well_void()
-    hm.state = flow.initial_state(network, hm.aperture(), fluid, pressure=start,
-                                  well_volume=well_void0)
-
-    dt = model.dt
-    ticks = _step_ticks(config, dt)
-    compare = set(np.round(config.duration * np.asarray(config.compare_at) / dt).astype(int))
-    rate = run.rate_2d * config.thickness
-    for k in range(1, len(ticks)):
-        hm.advance(float(ticks[k] - ticks[k - 1]) * dt, rate)
-        if int(ticks[k]) in compare or (record_every and k % record_every == 0):
-            run.states.append(_measure(run, assembly, plane_c, opening0, well_void0, hm,
-                                       ticks[k] * dt))
+    stages = [
+        Equilibrate(config.confinement, config.confinement, config.in_situ_ratio,
+                    config.in_situ_max_steps, wall_pressure=config.confinement),
+        KGDInjection(run, assembly, plane_c, record_every),
+    ]
+    Driver(stages, World(assembly, mech), _RequireConfinement()).execute()
     return run
 
 

@@ -11,9 +11,9 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.collections import LineCollection, PolyCollection  # noqa: E402
 
-from grainfrac.analysis.fields import major_principal_stress  # noqa: E402
 from grainfrac.assembly import GrainAssembly  # noqa: E402
 from grainfrac.io.files import write_atomic  # noqa: E402
+from grainfrac.physics.fields import major_principal_stress  # noqa: E402
 
 
 def _frame(ax, assembly: GrainAssembly, title: str) -> None:

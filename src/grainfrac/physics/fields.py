@@ -3,6 +3,10 @@
 Element stresses come tension positive, (sxx, syy, sxy[, szz]) in Pa. The
 paper plots compression positive; these functions return tension-positive
 values and the callers (figures, history) state their sign convention.
+
+They live in physics, not analysis, because a run measures them while it runs
+(the hoop stress near the well is a history column) and a run never imports
+from the analysis layer above it.
 """
 
 from __future__ import annotations

@@ -1,0 +1,279 @@
+"""A scenario's run: its stages on the driver, with history, snapshots and checkpoints.
+
+The driver (:mod:`grainfrac.stages`) owns the loop; this module supplies what
+happens between its chunks. After each chunk: a history row, a snapshot when
+due, a checkpoint when due (and at every stage end). Work advances in fixed
+chunks, so a run resumed from a checkpoint retraces exactly the path of an
+uninterrupted one. The checkpoint is one HDF5 file of records
+(:mod:`grainfrac.io.checkpoint`) replaced atomically; a numerical blow-up
+keeps the last good checkpoint and raises :class:`RunFailed` naming the stage,
+step and time. Summary and figures are not made here (:mod:`grainfrac.simulation`).
+"""
+
+from __future__ import annotations
+
+import time as wallclock
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field, fields
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from grainfrac.assembly import GrainAssembly, build_assembly
+from grainfrac.errors import CheckpointError, GrainfracError
+from grainfrac.io.checkpoint import read_checkpoint, write_checkpoint
+from grainfrac.io.results import write_history
+from grainfrac.io.snapshots import SnapshotSeries
+from grainfrac.materials import RockRecipe
+from grainfrac.physics.coupled import CoupledHistory
+from grainfrac.physics.fields import ring_mean_tangential_stress
+from grainfrac.physics.flow import FluidState
+from grainfrac.physics.model import build_mechanical_model
+from grainfrac.physics.solver import MechanicsSolver, NumericalBlowUp
+from grainfrac.scenario import Scenario
+from grainfrac.stages import Driver, DriverState, Hooks, Stage, World, from_scenario
+from grainfrac.stages.inject import couple_fluid
+from grainfrac.stages.world import SCDA
+
+CHECKPOINT_FILE = Path("checkpoint") / "state.h5"
+# Checkpoints of grainfrac before format 1: recognised only to refuse them clearly.
+LEGACY_CHECKPOINT_FILE = Path("checkpoint") / "state.npz"
+
+
+def checkpoint_path(out: str | Path) -> Path:
+    """The checkpoint of the run directory ``out``."""
+    return Path(out) / CHECKPOINT_FILE
+
+
+class RunFailed(GrainfracError):
+    """A run stopped on a numerical problem; the last good state is checkpointed."""
+
+
+@dataclass
+class Progress:
+    """What a progress display needs after each chunk."""
+
+    stage_index: int
+    stage_kind: str
+    n_stages: int
+    time_s: float
+    stage_fraction: float
+    n_cracks: int
+    well_pressure_Pa: float
+    expansive_pressure_Pa: float
+
+
+@dataclass
+class RunRecord:
+    """What the run itself keeps besides the driver's, the stages' and the world's
+    state: the history rows, the snapshots written and when each stage ran."""
+
+    history: list[dict[str, Any]] = field(default_factory=list)
+    snapshots: list[tuple[float, str, str]] = field(default_factory=list)
+    next_snapshot_time: float = 0.0
+    stage_times: dict[str, list[float]] = field(default_factory=dict)
+    wall_time_s: float = 0.0
+
+
+def _arrays(obj: Any) -> dict[str, np.ndarray]:
+    """The fields of a dataclass as arrays (lists become arrays)."""
+    return {f.name: np.asarray(getattr(obj, f.name)) for f in fields(obj)}
+
+
+class Run(Hooks):
+    """A scenario being run into a directory."""
+
+    def __init__(self, scenario: Scenario, recipe: RockRecipe, out: Path, *,
+                 base_dir: Path | None = None,
+                 progress: Callable[[Progress], None] | None = None):
+        self.scenario = scenario
+        self.recipe = recipe
+        self.out = Path(out)
+        self.progress = progress
+        self.assembly: GrainAssembly = build_assembly(scenario.specimen_config(), recipe)
+        self.world = World(self.assembly, MechanicsSolver(build_mechanical_model(self.assembly)))
+        self.stages: list[Stage] = from_scenario(scenario, base_dir)
+        self.driver = Driver(self.stages, self.world, self)
+        self.record = RunRecord()
+        self.snapshots = SnapshotSeries(self.out / "snapshots")
+        mesh = self.assembly.mesh
+        self._centroids = mesh.node_xy[mesh.element_nodes].mean(axis=1)
+        self._last_checkpoint = wallclock.monotonic()
+        self._started = wallclock.monotonic()
+
+    @property
+    def solver(self) -> MechanicsSolver:
+        return self.world.solver
+
+    @property
+    def checkpoint_path(self) -> Path:
+        return checkpoint_path(self.out)
+
+    def stage(self, kind: str) -> Stage | None:
+        """The first stage of ``kind`` (None if the scenario has none)."""
+        return next((s for s in self.stages if s.kind == kind), None)
+
+    def wall_time(self) -> float:
+        """Seconds this run has computed, over every session that resumed it."""
+        return self.record.wall_time_s + wallclock.monotonic() - self._started
+
+    # -- the loop ---------------------------------------------------------------------
+    def execute(self) -> None:
+        """Run (or continue) every stage to the end."""
+        try:
+            self.driver.execute()
+        except NumericalBlowUp as exc:
+            i = self.driver.state.stage_index
+            raise RunFailed(
+                f"stage {i + 1} ({self.stages[i].kind}) stopped: {exc}; the last "
+                f"good state is in {self.checkpoint_path}"
+            ) from None
+
+    def after_chunk(self, stage: Stage) -> None:
+        self._record(stage)
+        if stage.periodic_snapshots:
+            self._maybe_snapshot()
+
+    def after_stage(self, stage: Stage) -> None:
+        self.record.stage_times.setdefault(stage.kind, [stage.state.start_time,
+                                                        self.solver.time])
+        self._maybe_snapshot(force=True)
+        self.checkpoint()
+
+    def between_chunks(self) -> None:
+        every = self.scenario.output.checkpoint_every_minutes * 60.0
+        if wallclock.monotonic() - self._last_checkpoint >= every:
+            self.checkpoint()
+
+    def at_end(self) -> None:
+        self.checkpoint()
+
+    # -- what is recorded ---------------------------------------------------------------
+    def tangential_stress_near_well(self) -> float:
+        """Mean hoop stress (Pa, compression positive as in paper Fig. 10e) of the rock
+        between one and two well radii from the centre; NaN without a borehole."""
+        outline = self.assembly.mesh.grains.outline
+        if outline.borehole_radius <= 0:
+            return float("nan")
+        m = self.world.n_rock_elements
+        r = outline.borehole_radius
+        return -ring_mean_tangential_stress(self._centroids, self.solver.stress[:m],
+                                            self.world.rock_model.element_area,
+                                            outline.borehole_center, r, 2 * r)
+
+    def _record(self, stage: Stage) -> None:
+        s, w = self.solver, self.world
+        rock = w.rock_cracks()
+        modes = np.asarray(s.cracks.mode, dtype=np.int64)[rock]
+        injected = w.coupled.state.injected if w.coupled is not None else 0.0
+        row = {
+            "time_s": s.time,
+            "stage": stage.kind,
+            "well_pressure_MPa": w.well_pressure() / 1e6,
+            "expansive_pressure_MPa": w.expansive_pressure() / 1e6,
+            "injected_volume_ml": injected * 1e6,
+            "n_cracks": int(rock.sum()),
+            "n_tensile": int(np.count_nonzero(modes == 1)),
+            "n_shear": int(np.count_nonzero(modes == 2)),
+            "tangential_stress_near_well_MPa": self.tangential_stress_near_well() / 1e6,
+            "step": s.step_count,
+        }
+        self.record.history.append(row)
+        if self.progress is not None:
+            self.progress(Progress(self.driver.state.stage_index, stage.kind, len(self.stages),
+                                   s.time, stage.fraction(), row["n_cracks"],
+                                   w.well_pressure(), w.expansive_pressure()))
+
+    def _maybe_snapshot(self, force: bool = False) -> None:
+        every = self.scenario.output.snapshot_every_ms * 1e-3
+        if force or self.solver.time >= self.record.next_snapshot_time:
+            self.write_snapshot()
+            self.record.next_snapshot_time = self.solver.time + every
+
+    def write_snapshot(self) -> None:
+        s, w = self.solver, self.world
+        n, c, m = self.assembly.mesh.n_nodes, w.n_rock_contacts, w.n_rock_elements
+        pressure = aperture = None
+        if w.coupled is not None:
+            pressure = s.contact_pressure[:c]
+            aperture = w.coupled.aperture()
+        self.snapshots.write(self.assembly, s.time, s.u[:n], s.stress[:m], s.sigma_n[:c],
+                             s.tau[:c, 0], s.status[:c], pressure=pressure, aperture=aperture)
+        self.record.snapshots = list(self.snapshots.entries)
+
+    # -- checkpoints --------------------------------------------------------------------
+    def checkpoint(self) -> None:
+        """Write every record of the run's state, then history.csv."""
+        s, w = self.solver, self.world
+        self.record.wall_time_s = self.wall_time()
+        self._started = wallclock.monotonic()
+        records: dict[str, dict[str, Any]] = {
+            "run": asdict(self.record),
+            "driver": asdict(self.driver.state),
+            "world": {"model_kind": w.model_kind,
+                      "injection_start_time": w.injection_start_time},
+            "solver": {"time": s.time, "step_count": s.step_count,
+                       "allow_failure": s.allow_failure, **s.state_arrays()},
+            "solver/loads": {f.name: getattr(s.loads, f.name) for f in fields(s.loads)
+                             if isinstance(getattr(s.loads, f.name), np.ndarray)},
+            "solver/cracks": _arrays(s.cracks),
+        }
+        for i, stage in enumerate(self.stages):
+            records[f"stages/{i}"] = {"kind": stage.kind, **asdict(stage.state)}
+        if w.coupled is not None:
+            records["fluid/state"] = asdict(w.coupled.state)
+            records["fluid/history"] = _arrays(w.coupled.history)
+            records["fluid/coupling"] = {"base_external": w.coupled.base_external}
+        write_checkpoint(self.checkpoint_path, records)
+        write_history(self.out / "history.csv", self.record.history)
+        self._last_checkpoint = wallclock.monotonic()
+
+    def restore(self) -> None:
+        """Continue from the run directory's checkpoint."""
+        path = self.checkpoint_path
+        if not path.is_file() and (self.out / LEGACY_CHECKPOINT_FILE).is_file():
+            path = self.out / LEGACY_CHECKPOINT_FILE  # read_checkpoint says why it cannot
+        elif not path.is_file():
+            raise GrainfracError(f"nothing to resume: {path} does not exist")
+        records = read_checkpoint(path)
+        rec = records["run"]
+        rec["snapshots"] = [tuple(x) for x in rec["snapshots"]]
+        self.record = RunRecord(**rec)
+        self.driver.state = DriverState(**records["driver"])
+        for i, stage in enumerate(self.stages):
+            saved = dict(records.get(f"stages/{i}", {"kind": None}))
+            kind = saved.pop("kind")
+            if kind != stage.kind:
+                raise CheckpointError(f"{path}: stage {i + 1} of the checkpoint is {kind}, the "
+                                      f"scenario's is {stage.kind}: not this scenario's run")
+            stage.state = type(stage.state)(**saved)
+        w = self.world
+        world = records["world"]
+        w.injection_start_time = world["injection_start_time"]
+        if world["model_kind"] == SCDA:
+            self.stage("scda").build_plug(w)
+            w.solver = MechanicsSolver(w.scda_model)
+            w.model_kind = SCDA
+        s = w.solver
+        solver = records["solver"]
+        s.load_state_arrays(solver)
+        loads = records["solver/loads"]
+        for name, value in loads.items():
+            getattr(s.loads, name)[...] = value
+        s.time = float(solver["time"])
+        s.step_count = int(solver["step_count"])
+        s.allow_failure = bool(solver["allow_failure"])
+        for name, value in records["solver/cracks"].items():
+            setattr(s.cracks, name, value.tolist())
+        if "fluid/state" in records:
+            # Coupling to the restored mechanics applies the fluid's initial pressures;
+            # the saved fluid state, loads and contact pressures then replace them.
+            w.coupled = couple_fluid(w, self.scenario.fluid)
+            w.coupled.state = FluidState(**records["fluid/state"])
+            w.coupled.base_external = records["fluid/coupling"]["base_external"].copy()
+            w.coupled.history = CoupledHistory(
+                **{k: v.tolist() for k, v in records["fluid/history"].items()})
+            s.loads.external[...] = loads["external"]
+            s.contact_pressure[...] = solver["contact_pressure"]
+        self.snapshots.entries = list(self.record.snapshots)

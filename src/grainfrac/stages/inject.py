@@ -1,0 +1,89 @@
+"""Injection: fluid into the well at a constant rate, one fluid step per chunk."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from grainfrac.physics import flow
+from grainfrac.physics.coupled import HydroMechanicalSolver
+from grainfrac.scenario import FluidSpec, InjectStage
+from grainfrac.stages.world import World
+
+# A crack this close to an outer side (in zone sizes) means a fracture reached it.
+BOUNDARY_REACH_ZONES = 1.5
+
+
+def couple_fluid(world: World, fluid: FluidSpec) -> HydroMechanicalSolver:
+    """The grain-boundary flow network with a well, coupled to the world's mechanics."""
+    assembly = world.assembly
+    network = flow.build_flow_network(
+        assembly.mesh, permeable_sides=fluid.fixed_pressures(), well=True,
+        well_compressibility=fluid.well_compressibility,
+        sealed=assembly.contact_intragranular,
+    )
+    a0 = assembly.recipe.hydraulic.initial_aperture_m
+    return HydroMechanicalSolver(assembly, world.solver, network, fluid.properties(a0))
+
+
+def fracture_at_boundary(world: World) -> bool:
+    """Whether a crack made since injection started lies within reach of an outer
+    side (not the borehole wall).
+
+    Cracks of earlier stages do not count: after SCDA charging in a weak rock a
+    radial crack can already reach the boundary, and the injection that is to
+    extend the fractures would otherwise end at its first step.
+    """
+    since = world.injection_start_time
+    rock = world.rock_cracks() & (np.asarray(world.solver.cracks.time) >= since)
+    if not rock.any():
+        return False
+    mesh = world.assembly.mesh
+    contacts = np.asarray(world.solver.cracks.contact, dtype=np.int64)[rock]
+    near = mesh.grains.outline.side_of_points(mesh.contact_xy[contacts],
+                                              BOUNDARY_REACH_ZONES * mesh.zone_size)
+    return any(mask.any() for side, mask in near.items() if side != "borehole")
+
+
+@dataclass
+class InjectState:
+    start_time: float = 0.0
+    chunks: int = 0
+    done: bool = False
+    fraction: float = 0.0
+
+
+@dataclass
+class Inject:
+    """Inject as ``spec`` says; the first injection couples ``fluid`` to the mechanics."""
+
+    spec: InjectStage
+    fluid: FluidSpec
+    kind: str = "inject"
+    periodic_snapshots: bool = True
+    state: InjectState = field(default_factory=InjectState)
+
+    def begin(self, world: World) -> None:
+        self.state.start_time = world.solver.time
+        if world.coupled is None:
+            world.coupled = couple_fluid(world, self.fluid)
+            if world.injection_start_time is None:
+                world.injection_start_time = world.solver.time
+
+    def advance(self, world: World) -> None:
+        st, spec = self.state, self.spec
+        world.coupled.advance(spec.time_step, spec.rate)
+        st.chunks += 1
+        elapsed = world.solver.time - st.start_time
+        planned = spec.planned_duration_s
+        st.done = elapsed >= planned - 1e-12
+        if spec.stop_at_boundary and fracture_at_boundary(world):
+            st.done = True
+        st.fraction = min(1.0, elapsed / planned)
+
+    def finished(self) -> bool:
+        return self.state.done
+
+    def fraction(self) -> float:
+        return self.state.fraction

@@ -1,0 +1,146 @@
+"""Platen loading: rigid platens close at a constant speed until the specimen fails.
+
+The engine of the UCS, BTS and NSCB lab tests (:mod:`grainfrac.labtests`): the
+load the platens carry is sampled every few hundred steps (one chunk per
+sample) until it falls below a fraction of its peak, the closure passes a
+multiple of the closure at the first peak, or the nominal strain its limit.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from grainfrac.loading.boundary import Platen
+from grainfrac.physics.solver import MechanicsSolver
+from grainfrac.stages.world import World
+
+RAMP_SAMPLES = 20  # samples over which the platen speed ramps up from zero
+
+
+@dataclass
+class LoadingCurve:
+    """Samples of a platen test, SI units.
+
+    ``load`` is the compressive force the loading platen carries (N) and
+    ``closure`` how far it has moved towards the specimen (m) (both platens for
+    two-platen tests). ``extra`` holds the test's own monitors.
+    """
+
+    time: list[float] = field(default_factory=list)
+    closure: list[float] = field(default_factory=list)
+    load: list[float] = field(default_factory=list)
+    n_cracks: list[int] = field(default_factory=list)
+    extra: dict[str, list[float]] = field(default_factory=dict)
+
+    def array(self, name: str) -> np.ndarray:
+        if name in self.extra:
+            return np.asarray(self.extra[name], dtype=float)
+        return np.asarray(getattr(self, name), dtype=float)
+
+
+def first_peak(load: np.ndarray, drop_fraction: float, persist: int = 2) -> tuple[int, bool]:
+    """Index of the first peak: the running maximum before the load first stays
+    ``drop_fraction`` below it for ``persist`` samples in a row. Returns
+    ``(index, found)``; without such a fall it is the overall maximum with
+    ``found = False``."""
+    load = np.asarray(load, dtype=float)
+    if len(load) == 0:
+        return 0, False
+    below = load < (1.0 - drop_fraction) * np.maximum.accumulate(load)
+    run = np.convolve(below.astype(int), np.ones(persist, dtype=int), mode="full")[:len(load)]
+    fallen = np.nonzero(run >= persist)[0]
+    if len(fallen) == 0:
+        return int(np.argmax(load)), False
+    end = int(fallen[0]) - persist + 1
+    return int(np.argmax(load[:end])), True
+
+
+@dataclass
+class PlatenLoadingState:
+    """``peak`` load (N) so far, the closure at the first peak once found, and why
+    the loading stopped."""
+
+    start_time: float = 0.0
+    samples: int = 0
+    peak: float = 0.0
+    peak_closure: float | None = None
+    stop_reason: str | None = None
+
+
+@dataclass
+class PlatenLoading:
+    """Close the ``loading`` platens at ``speed`` (m/s), sampling every ``sample_steps``.
+
+    Stops when the load falls below ``stop_fraction`` x its peak, when the
+    closure reaches ``post_peak_factor`` x the closure at the first peak (a
+    fall of ``peak_drop_fraction``, :func:`first_peak`), or ``max_strain`` x
+    ``size`` (m). ``monitors`` are sampled with the load into ``curve.extra``.
+    (The lab tests' :class:`~grainfrac.labtests.config.LoadingSpec` in SI.)
+    """
+
+    loading: list[Platen]
+    size: float
+    speed: float
+    sample_steps: int
+    stop_fraction: float
+    peak_drop_fraction: float
+    post_peak_factor: float
+    max_strain: float
+    monitors: dict[str, Callable[[MechanicsSolver], float]] = field(default_factory=dict)
+    kind: str = "platen_loading"
+    periodic_snapshots: bool = False
+    state: PlatenLoadingState = field(default_factory=PlatenLoadingState)
+    curve: LoadingCurve = field(default_factory=LoadingCurve)
+    _start: list[float] = field(default_factory=list, init=False, repr=False)
+
+    def load(self) -> float:
+        """Mean compressive force of the loading platens (N)."""
+        return float(np.mean([p.side * p.reaction for p in self.loading]))
+
+    def closure(self) -> float:
+        """How far the loading platens have moved towards the specimen (m)."""
+        return float(sum(p.side * (s - p.position) for p, s in zip(self.loading, self._start,
+                                                                    strict=True)))
+
+    def begin(self, world: World) -> None:
+        self.state.start_time = world.solver.time
+        self._start = [p.position for p in self.loading]
+        self.curve = LoadingCurve(extra={name: [] for name in self.monitors})
+
+    def advance(self, world: World) -> None:
+        st, curve, s = self.state, self.curve, world.solver
+        # A sudden start sends a stress wave that reads as an early peak: ramp up.
+        ramp = min(1.0, (st.samples + 1) / RAMP_SAMPLES)
+        for p in self.loading:
+            p.velocity = -p.side * self.speed * ramp
+        st.samples += 1
+        s.cycle(self.sample_steps)
+        load, closure = self.load(), self.closure()
+        curve.time.append(s.time)
+        curve.closure.append(closure)
+        curve.load.append(load)
+        curve.n_cracks.append(len(s.cracks.contact))
+        for name, monitor in self.monitors.items():
+            curve.extra[name].append(float(monitor(s)))
+        st.peak = max(st.peak, load)
+        if load < self.stop_fraction * st.peak:
+            st.stop_reason = f"load fell below {self.stop_fraction:g} x peak"
+            return
+        if st.peak_closure is None:
+            index, found = first_peak(curve.load, self.peak_drop_fraction)
+            if found:
+                st.peak_closure = curve.closure[index]
+        elif closure >= self.post_peak_factor * st.peak_closure:
+            st.stop_reason = f"closure reached {self.post_peak_factor:g} x closure at peak"
+            return
+        if closure >= self.max_strain * self.size:
+            st.stop_reason = f"closure reached max_strain {self.max_strain:g} x size"
+
+    def finished(self) -> bool:
+        return self.state.stop_reason is not None
+
+    def fraction(self) -> float:
+        return min(1.0, self.closure() / (self.max_strain * self.size))
