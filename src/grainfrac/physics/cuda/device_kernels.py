@@ -1,8 +1,8 @@
 """CUDA kernels of one explicit step, one thread per element / contact / node.
 
-The physics is not re-written here: the element strain and stress
-(:func:`~grainfrac.physics.kernels.elastic_strain`,
-:func:`~grainfrac.physics.kernels.hooke_stress`), the contact kinematics
+The physics is not re-written here: the element stress and nodal forces
+(``stress`` and ``node_force`` of :mod:`grainfrac.physics.elements.triangle` and
+:mod:`~grainfrac.physics.elements.tetrahedron`), the contact kinematics
 (:func:`~grainfrac.physics.kernels.relative_normal`) and the contact law
 (:func:`~grainfrac.physics.kernels.contact_law`) are the CPU backend's ``@njit``
 functions, which numba compiles for the device when a ``@cuda.jit`` kernel calls
@@ -29,6 +29,7 @@ from numba import float64
 
 from grainfrac.physics import kernels
 from grainfrac.physics.cuda._numba import cuda, raw
+from grainfrac.physics.elements import tetrahedron, triangle
 from grainfrac.physics.records import ENERGY_KEYS, Elements, ElementState
 
 # Positions of the books in the device's float64[8] view of an energy record.
@@ -53,9 +54,6 @@ def step_kernels(d: int, tpb: int):
     """The kernels for dimension ``d`` and ``tpb`` threads per block (a power of 2)."""
     if tpb & (tpb - 1):
         raise ValueError(f"threads per block must be a power of two, got {tpb}")
-    n_strain = d * (d + 1) // 2
-    n_stress = 4 if d == 2 else 6  # 2D keeps the plane-strain sigma_zz
-    n_nodes = d + 1
     n_tangents = d - 1
 
     @cuda.jit(device=True)
@@ -139,31 +137,37 @@ def step_kernels(d: int, tpb: int):
             elements = Elements(raw(cells), raw(grad), raw(measure), raw(lam), raw(mu))
             state = ElementState(raw(stress), raw(eigenstrain), raw(eigenstrain_rate),
                                  raw(initial_strain))
-            strain = cuda.local.array(n_strain, float64)
-            sigma = cuda.local.array(n_stress, float64)
-            tensor = cuda.local.array((d, d), float64)
-            kernels.elastic_strain(raw(u), elements, state, e, strain)
-            kernels.hooke_stress(lam[e], mu[e], strain, d, sigma)
-            for s in range(n_stress):
-                stress[e, s] = sigma[s]
-            for i in range(d):
-                tensor[i, i] = sigma[i]
-                for j in range(i + 1, d):
-                    tensor[i, j] = sigma[kernels.shear_component(d, i, j)]
-                    tensor[j, i] = tensor[i, j]
-            vol = measure[e]
-            for k in range(n_nodes):
-                n = cells[e, k]
-                for i in range(d):
-                    f = grad[e, k, 0] * tensor[i, 0]
-                    for j in range(1, d):
-                        f += grad[e, k, j] * tensor[i, j]
-                    cuda.atomic.add(force, (n, i), -(vol * f))
+            # The element layer's own stress and nodal-force functions (CPU kernels too).
+            if d == 2:
+                sxx, syy, sxy, szz = triangle.stress(raw(u), elements, state, e)
+                stress[e, 0] = sxx
+                stress[e, 1] = syy
+                stress[e, 2] = sxy
+                stress[e, 3] = szz
+                trace = sxx + syy
+                for k in range(3):
+                    n = cells[e, k]
+                    fx, fy = triangle.node_force(elements, e, k, sxx, syy, sxy)
+                    cuda.atomic.add(force, (n, 0), -fx)
+                    cuda.atomic.add(force, (n, 1), -fy)
+            else:
+                sxx, syy, szz, syz, sxz, sxy = tetrahedron.stress(raw(u), elements, state, e)
+                stress[e, 0] = sxx
+                stress[e, 1] = syy
+                stress[e, 2] = szz
+                stress[e, 3] = syz
+                stress[e, 4] = sxz
+                stress[e, 5] = sxy
+                trace = sxx + syy + szz
+                for k in range(4):
+                    n = cells[e, k]
+                    fx, fy, fz = tetrahedron.node_force(elements, e, k, sxx, syy, szz, syz,
+                                                        sxz, sxy)
+                    cuda.atomic.add(force, (n, 0), -fx)
+                    cuda.atomic.add(force, (n, 1), -fy)
+                    cuda.atomic.add(force, (n, 2), -fz)
             if rate != 0.0:
-                trace = sigma[0]
-                for i in range(1, d):
-                    trace += sigma[i]
-                work = -(vol * trace * rate * dt)
+                work = -(measure[e] * trace * rate * dt)
         total = block_sum(buf, work)
         if cuda.threadIdx.x == 0 and total != 0.0:
             cuda.atomic.add(energy, E_EXPANSION, total)

@@ -73,7 +73,7 @@ class CudaMechanics:
         s, m = self.solver, self.solver.model
         n_new, done = stepper.run_steps_cuda(
             StepControl(int(n_steps), m.dt, s.damping, bool(s.allow_failure),
-                        float(s.velocity_limit)),
+                        float(s.velocity_limit), False),
             self._nodes, self._loads, self._elements, self._element_state, self._contacts,
             self._contact_state, self._platens, self._pores_device(), self._energies,
             self._cracks, tpb=self.tpb, sync_every=max(int(n_steps), 1), timings=timings,
