@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 if not hasattr(np, "row_stack"):  # numba-cuda 0.x still calls it
-    np.vstack = np.vstack
+    np.row_stack = np.vstack  # noqa: NPY201 (an alias, for numba-cuda)
 
 from numba import (  # noqa: E402
     config,
