@@ -80,6 +80,18 @@ class SpecimenConfig(StrictModel):
     grains: GrainSpec = Field(default_factory=GrainSpec)
     fissures: FissureSpec = Field(default_factory=FissureSpec)
 
+    @model_validator(mode="before")
+    @classmethod
+    def _slab_thickness_3d(cls, data):
+        # The 2D slab's default thickness is a plane-strain slice; a 3D slab
+        # without one gets the 3D default.
+        if isinstance(data, dict) and data.get("dimension") == 3:
+            spec = data.get("specimen", {"shape": "slab"})
+            if isinstance(spec, dict) and spec.get("shape") == "slab" \
+                    and "thickness_mm" not in spec:
+                data = {**data, "specimen": {**spec, "thickness_mm": SLAB_THICKNESS_3D_MM}}
+        return data
+
     @model_validator(mode="after")
     def _fits(self) -> SpecimenConfig:
         spec = self.specimen
@@ -88,10 +100,6 @@ class SpecimenConfig(StrictModel):
             raise ValueError(f"specimen.shape: {spec.shape!r} is not built in {self.dimension}D "
                              f"(one of {', '.join(shapes)})")
         if self.dimension == 3 and isinstance(spec, SlabSpec):
-            if "thickness_mm" not in spec.model_fields_set:
-                # The 2D default (a plane-strain slice) is not the 3D slab's.
-                self.specimen = spec = spec.model_copy(
-                    update={"thickness_mm": SLAB_THICKNESS_3D_MM})
             if spec.thickness_mm < self.grains.zone_size_mm:
                 raise ValueError(
                     f"specimen.thickness_mm: must be at least one zone "
@@ -294,7 +302,8 @@ def _build_assembly3d(config: SpecimenConfig, recipe: materials.RockRecipe) -> G
                       spec.borehole_diameter_mm, zone)
     cx = tessellate3d(solid, config.grains.min_edge_mm * MM, config.grains.max_edge_mm * MM,
                       zone, rngs["tessellation"])
-    mesh = mesh_grains3d(cx, zone, rngs["tessellation"])
+    mesh = mesh_grains3d(cx, zone, rngs["tessellation"],
+                         (config.grains.min_edge_mm * MM, config.grains.max_edge_mm * MM))
 
     def eligible(clear: float) -> np.ndarray:
         return interface_axis_distance(mesh) > clear

@@ -99,6 +99,7 @@ class GrainMesh3D:
 
     grains: GrainComplex
     zone_size: float
+    grain_bounds: tuple[float, float]  # (min_edge, max_edge) requested (m)
     node_x: np.ndarray  # (n, 3)
     node_grain: np.ndarray  # (n,)
     node_point: np.ndarray  # (n,) id of the shared point the node sits on
@@ -196,7 +197,8 @@ def tet_quality(p: np.ndarray) -> np.ndarray:
     return 6.0 * math.sqrt(2.0) * vol / l2 ** 1.5
 
 
-def mesh_grains3d(cx: GrainComplex, zone_size: float, rng: np.random.Generator) -> GrainMesh3D:
+def mesh_grains3d(cx: GrainComplex, zone_size: float, rng: np.random.Generator,
+                  grain_bounds: tuple[float, float] = (0.0, np.inf)) -> GrainMesh3D:
     """Mesh every piece into tetrahedra; build sub-contacts and the face flow graph.
 
     Parameters
@@ -207,6 +209,9 @@ def mesh_grains3d(cx: GrainComplex, zone_size: float, rng: np.random.Generator) 
         Target tetrahedron edge (m).
     rng
         Random generator for the point displacements (general position).
+    grain_bounds
+        The (min, max) grain edge lengths the tessellation was asked for (m), kept
+        for reports.
     """
     h = zone_size
     points = [cx.vertices]
@@ -267,7 +272,8 @@ def mesh_grains3d(cx: GrainComplex, zone_size: float, rng: np.random.Generator) 
         piece_ids.append(ids)
         piece_tets.append(ids[tets])
     pts = np.vstack(points)
-    return _assemble(cx, h, pts, face_point_ids, face_tris, face_point_area, piece_tets)
+    return _assemble(cx, h, pts, face_point_ids, face_tris, face_point_area, piece_tets,
+                     grain_bounds)
 
 
 def _gather(points: list[np.ndarray], ids: np.ndarray) -> np.ndarray:
@@ -381,8 +387,8 @@ def _check_conforming(tets: np.ndarray, face_tris: list[np.ndarray], piece: int)
         )
 
 
-def _assemble(cx, h, pts, face_point_ids, face_tris, face_point_area, piece_tets
-              ) -> GrainMesh3D:
+def _assemble(cx, h, pts, face_point_ids, face_tris, face_point_area, piece_tets,
+              grain_bounds) -> GrainMesh3D:
     """Nodes per grain, elements, sub-contacts, flow graph and node sets."""
     grain_of_piece = cx.piece_grain
     tet_pts = np.vstack(piece_tets)
@@ -439,6 +445,7 @@ def _assemble(cx, h, pts, face_point_ids, face_tris, face_point_area, piece_tets
     return GrainMesh3D(
         grains=cx,
         zone_size=h,
+        grain_bounds=(float(grain_bounds[0]), float(grain_bounds[1])),
         node_x=pts[node_point],
         node_grain=node_grain,
         node_point=node_point,
