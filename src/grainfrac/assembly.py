@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 from pydantic import Field, model_validator
@@ -19,8 +20,18 @@ from grainfrac import materials
 from grainfrac.errors import ConfigError
 from grainfrac.geometry.blocks import zone_blocks
 from grainfrac.geometry.meshing import GrainMesh, mesh_grains
-from grainfrac.geometry.specimens import SlabSpec, SpecimenShapeSpec, outline
+from grainfrac.geometry.meshing3d import GrainMesh3D, mesh_grains3d
+from grainfrac.geometry.solids3d import box_solid
+from grainfrac.geometry.specimens import (
+    SHAPES_2D,
+    SHAPES_3D,
+    SLAB_THICKNESS_3D_MM,
+    SlabSpec,
+    SpecimenShapeSpec,
+    outline,
+)
 from grainfrac.geometry.tessellation import tessellate
+from grainfrac.geometry.tessellation3d import tessellate3d
 from grainfrac.io.config import StrictModel, read_toml, source_path, validate
 from grainfrac.units import MM
 
@@ -63,14 +74,36 @@ class SpecimenConfig(StrictModel):
     """Everything needed to build an assembly: ``grainfrac specimen SPEC.toml``."""
 
     seed: int = Field(0, ge=0)
+    dimension: Literal[2, 3] = 2
     rock: str | materials.RockRecipe = "strathbogie-granite"
     specimen: SpecimenShapeSpec = Field(default_factory=SlabSpec)
     grains: GrainSpec = Field(default_factory=GrainSpec)
     fissures: FissureSpec = Field(default_factory=FissureSpec)
 
+    @model_validator(mode="before")
+    @classmethod
+    def _slab_thickness_3d(cls, data):
+        # The 2D slab's default thickness is a plane-strain slice; a 3D slab
+        # without one gets the 3D default.
+        if isinstance(data, dict) and data.get("dimension") == 3:
+            spec = data.get("specimen", {"shape": "slab"})
+            if isinstance(spec, dict) and spec.get("shape") == "slab" \
+                    and "thickness_mm" not in spec:
+                data = {**data, "specimen": {**spec, "thickness_mm": SLAB_THICKNESS_3D_MM}}
+        return data
+
     @model_validator(mode="after")
     def _fits(self) -> SpecimenConfig:
         spec = self.specimen
+        shapes = SHAPES_3D if self.dimension == 3 else SHAPES_2D
+        if spec.shape not in shapes:
+            raise ValueError(f"specimen.shape: {spec.shape!r} is not built in {self.dimension}D "
+                             f"(one of {', '.join(shapes)})")
+        if self.dimension == 3 and isinstance(spec, SlabSpec):
+            if spec.thickness_mm < self.grains.zone_size_mm:
+                raise ValueError(
+                    f"specimen.thickness_mm: must be at least one zone "
+                    f"({self.grains.zone_size_mm:g} mm) in 3D, got {spec.thickness_mm:g}")
         clear = self.fissures.clear_radius_mm
         if clear > 0:
             if not (isinstance(spec, SlabSpec) and spec.borehole_diameter_mm > 0):
@@ -120,7 +153,7 @@ class GrainAssembly:
     and the interfaces between blocks of one grain are grain-interior contacts.
     """
 
-    mesh: GrainMesh
+    mesh: GrainMesh | GrainMesh3D
     recipe: materials.RockRecipe
     seed: int
     mineral_table: materials.MineralTable
@@ -141,7 +174,13 @@ class GrainAssembly:
     block_grain: np.ndarray | None = None
 
     @property
+    def dimension(self) -> int:
+        return 3 if isinstance(self.mesh, GrainMesh3D) else 2
+
+    @property
     def n_grains(self) -> int:
+        if self.dimension == 3:
+            return self.mesh.grains.n_grains
         if self.block_grain is not None:
             return int(self.block_grain.max()) + 1
         return self.mesh.grains.n_grains
@@ -184,8 +223,9 @@ class GrainAssembly:
         return getattr(self, f"interface_{name}")[self.mesh.contact_interface]
 
     def volume_fractions(self) -> np.ndarray:
-        """Realised mineral volume (area) fractions, in recipe mineral order."""
-        areas = self.mesh.grains.grain_areas()
+        """Realised mineral volume (area in 2D) fractions, in recipe mineral order."""
+        areas = (self.mesh.grain_volumes() if self.dimension == 3
+                 else self.mesh.grains.grain_areas())
         n = self.mineral_table.n_minerals
         return np.bincount(self.grain_mineral, weights=areas, minlength=n) / areas.sum()
 
@@ -206,24 +246,30 @@ def _interface_distance(mesh: GrainMesh, point: tuple[float, float]) -> np.ndarr
     return out
 
 
+def _random_streams(seed: int) -> dict[str, np.random.Generator]:
+    return dict(
+        zip(
+            _STREAMS,
+            (np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(
+                len(_STREAMS))),
+            strict=True,
+        )
+    )
+
+
 def build_assembly(config: SpecimenConfig, recipe: materials.RockRecipe) -> GrainAssembly:
     """Tessellate, mesh and assign materials.
 
     Parameters
     ----------
     config
-        Validated specimen config (seed, shape, grain sizes, fissures).
+        Validated specimen config (seed, dimension, shape, grain sizes, fissures).
     recipe
         The rock recipe (resolved from ``config.rock``).
     """
-    rngs = dict(
-        zip(
-            _STREAMS,
-            (np.random.default_rng(s) for s in np.random.SeedSequence(config.seed).spawn(
-                len(_STREAMS))),
-            strict=True,
-        )
-    )
+    if config.dimension == 3:
+        return _build_assembly3d(config, recipe)
+    rngs = _random_streams(config.seed)
     zone = config.grains.zone_size_mm * MM
     shape = outline(config.specimen, zone)
     grains = tessellate(
@@ -236,10 +282,53 @@ def build_assembly(config: SpecimenConfig, recipe: materials.RockRecipe) -> Grai
     )
     mesh = mesh_grains(grains, zone)
 
+    def eligible(clear: float) -> np.ndarray:
+        return _interface_distance(mesh, shape.borehole_center) > clear
+
+    grain_level = _with_materials(mesh, grains.grain_areas(), config, recipe, rngs, eligible)
+    if recipe.intragranular is None:
+        return grain_level
+    return _breakable(grain_level, rngs["intragranular_weibull"])
+
+
+def _build_assembly3d(config: SpecimenConfig, recipe: materials.RockRecipe) -> GrainAssembly:
+    """The 3D path: polyhedral grains, tetrahedra, contacts on grain faces."""
+    if recipe.intragranular is not None:
+        raise ConfigError("rock", "breakable grains (intragranular) are 2D only for now")
+    rngs = _random_streams(config.seed)
+    zone = config.grains.zone_size_mm * MM
+    spec = config.specimen
+    solid = box_solid("slab", spec.width_mm, spec.height_mm, spec.thickness_mm,
+                      spec.borehole_diameter_mm, zone)
+    cx = tessellate3d(solid, config.grains.min_edge_mm * MM, config.grains.max_edge_mm * MM,
+                      zone, rngs["tessellation"])
+    mesh = mesh_grains3d(cx, zone, rngs["tessellation"],
+                         (config.grains.min_edge_mm * MM, config.grains.max_edge_mm * MM))
+
+    def eligible(clear: float) -> np.ndarray:
+        return interface_axis_distance(mesh) > clear
+
+    return _with_materials(mesh, mesh.grain_volumes(), config, recipe, rngs, eligible)
+
+
+def interface_axis_distance(mesh: GrainMesh3D) -> np.ndarray:
+    """Smallest distance (m) from the borehole axis (z through the origin) to each grain
+    interface, over its sub-contact points."""
+    r = np.hypot(mesh.contact_x[:, 0], mesh.contact_x[:, 1])
+    out = np.full(mesh.n_interfaces, np.inf)
+    np.minimum.at(out, mesh.contact_interface, r)
+    return out
+
+
+def _with_materials(mesh, grain_measure, config, recipe, rngs, eligible) -> GrainAssembly:
+    """Minerals by measure (area in 2D, volume in 3D), Weibull draws and fissures.
+
+    Shared by both dimensions; each concern draws from its own stream, so the
+    2D numbers are those of the code before the 3D path existed.
+    """
     mtab = materials.mineral_table(recipe)
     ctab = materials.contact_table(recipe)
-    mineral = materials.assign_minerals(grains.grain_areas(), mtab.volume_fraction,
-                                        rngs["minerals"])
+    mineral = materials.assign_minerals(grain_measure, mtab.volume_fraction, rngs["minerals"])
     g_draw = {
         name: materials.weibull_draw(getattr(mtab, name)[mineral], rngs["grain_weibull"],
                                      recipe.weibull, materials.WEIBULL_UPPER_BOUNDS.get(name))
@@ -258,16 +347,16 @@ def build_assembly(config: SpecimenConfig, recipe: materials.RockRecipe) -> Grai
     fissure = np.zeros(mesh.n_interfaces, dtype=bool)
     if config.fissures.fraction > 0:
         clear = config.fissures.clear_radius_mm * MM
-        eligible = np.ones(mesh.n_interfaces, dtype=bool)
+        ok = np.ones(mesh.n_interfaces, dtype=bool)
         if clear > 0:
-            eligible = _interface_distance(mesh, shape.borehole_center) > clear
+            ok = eligible(clear)
         fissure = materials.select_fissures(
-            mesh.n_interfaces, config.fissures.fraction, eligible, rngs["fissures"]
+            mesh.n_interfaces, config.fissures.fraction, ok, rngs["fissures"]
         )
     cohesion = np.where(fissure, 0.0, c_draw["cohesion_Pa"])
     tensile = np.where(fissure, 0.0, c_draw["tensile_strength_Pa"])
 
-    grain_level = GrainAssembly(
+    return GrainAssembly(
         mesh=mesh,
         recipe=recipe,
         seed=config.seed,
@@ -291,9 +380,6 @@ def build_assembly(config: SpecimenConfig, recipe: materials.RockRecipe) -> Grai
         interface_shear_fracture_energy=np.where(
             fissure, 0.0, ctab.shear_fracture_energy_J_per_m2[pair]),
     )
-    if recipe.intragranular is None:
-        return grain_level
-    return _breakable(grain_level, rngs["intragranular_weibull"])
 
 
 _INTERFACE_FIELDS = {

@@ -64,13 +64,24 @@ def specimen(
         with console.status("tessellating and meshing..."):
             assembly = build_assembly(config, recipe)
         wall = time.perf_counter() - start
-        summary = specimen_summary(assembly, wall_time_s=wall)
         resolved = config.model_dump(mode="json")
         resolved["rock"] = recipe.model_dump(mode="json")
-        write_toml(out / "specimen.toml", resolved)
-        write_assembly(assembly, out)
-        plot_assembly(assembly, out / "specimen.png", show_mesh=mesh,
-                      title=f"{summary['specimen']} - {recipe.name} - seed {config.seed}")
+        if assembly.dimension == 3:
+            from grainfrac.io.vtk import write_assembly3d
+            from grainfrac.specimen_report import specimen_summary3d
+            from grainfrac.viz.specimen import plot_assembly3d
+
+            summary = specimen_summary3d(assembly, wall_time_s=wall)
+            write_toml(out / "specimen.toml", resolved)
+            write_assembly3d(assembly, out)
+            plot_assembly3d(assembly, out / "specimen.png",
+                            title=f"3D {summary['specimen']} - {recipe.name} - seed {config.seed}")
+        else:
+            summary = specimen_summary(assembly, wall_time_s=wall)
+            write_toml(out / "specimen.toml", resolved)
+            write_assembly(assembly, out)
+            plot_assembly(assembly, out / "specimen.png", show_mesh=mesh,
+                          title=f"{summary['specimen']} - {recipe.name} - seed {config.seed}")
         write_json(out / "summary.json", summary)
     except GrainfracError as exc:
         _fail(exc)
@@ -85,7 +96,13 @@ def _print_specimen_summary(summary: dict, out: Path) -> None:
     for key in ("n_grains", "n_elements", "n_nodes", "n_contacts", "n_interfaces",
                 "n_fissures", "n_fluid_nodes", "n_pipes"):
         counts.add_row(key.removeprefix("n_").replace("_", " "), str(summary[key]))
-    counts.add_row("min element angle (deg)", f"{summary['min_element_angle_deg']:.1f}")
+    if summary.get("dimension") == 3:
+        from grainfrac.specimen_report import quality_rows3d
+
+        for label, value in quality_rows3d(summary):
+            counts.add_row(label, value)
+    else:
+        counts.add_row("min element angle (deg)", f"{summary['min_element_angle_deg']:.1f}")
     console.print(counts)
 
     minerals = Table(title="mineral volume fractions")

@@ -94,6 +94,13 @@ SpecimenShapeSpec = Annotated[
     SlabSpec | DiskSpec | SemiDiskSpec | RectangleSpec, Field(discriminator="shape")
 ]
 
+#: Shapes each dimension builds. In 3D a slab is a box with a borehole along z
+#: through its thickness; the paper's 100 mm cube is the slab 100 x 100 x 100.
+SHAPES_2D = ("slab", "disk", "semi_disk", "rectangle")
+SHAPES_3D = ("slab",)
+#: The paper does not state the slab's thickness; 3D slabs default to this (mm).
+SLAB_THICKNESS_3D_MM = 20.0
+
 
 @dataclass(frozen=True)
 class Outline:

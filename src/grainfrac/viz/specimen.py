@@ -88,3 +88,92 @@ def plot_gallery(assemblies: list[tuple[str, GrainAssembly]], path: str | Path) 
     out = write_atomic(path, lambda p: fig.savefig(p, format="png", bbox_inches="tight"))
     plt.close(fig)
     return out
+
+
+# -- 3D ---------------------------------------------------------------------------------
+def _mid_section(assembly: GrainAssembly, z: float) -> tuple[list[np.ndarray], list[int]]:
+    """Polygons (mm) of the grain pieces cut by the plane at height ``z``, and their minerals."""
+    cx = assembly.mesh.grains
+    polys, minerals = [], []
+    for p in range(cx.n_pieces):
+        seg = []
+        for f in cx.piece_faces[p]:
+            v = cx.vertices[cx.faces[f]]
+            a, b = v, np.roll(v, -1, axis=0)
+            s = (a[:, 2] - z) * (b[:, 2] - z)
+            cross = s < 0
+            t = (z - a[cross, 2]) / (b[cross, 2] - a[cross, 2])
+            seg.extend(a[cross, :2] + t[:, None] * (b[cross, :2] - a[cross, :2]))
+        if len(seg) < 3:
+            continue
+        pts = np.unique(np.round(np.array(seg), 12), axis=0)
+        if len(pts) < 3:
+            continue
+        c = pts.mean(axis=0)
+        pts = pts[np.argsort(np.arctan2(pts[:, 1] - c[1], pts[:, 0] - c[0]))]
+        polys.append(pts * 1e3)
+        minerals.append(int(assembly.grain_mineral[cx.piece_grain[p]]))
+    return polys, minerals
+
+
+def plot_assembly3d(assembly: GrainAssembly, path: str | Path, *,
+                    title: str | None = None) -> Path:
+    """Save a PNG: the specimen's outer faces by mineral (3D view) and a mid-height section
+    (grains by mineral, fissured faces crossing it in red)."""
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    mesh = assembly.mesh
+    cx = mesh.grains
+    names = assembly.mineral_table.names
+    colours = [MINERAL_COLOURS.get(n, "#999999") for n in names]
+    fig = plt.figure(figsize=(12.5, 5.6), dpi=130)
+    ax = fig.add_subplot(1, 2, 1, projection="3d")
+    surface = np.flatnonzero(cx.face_pieces[:, 1] < 0)
+    polys = [cx.vertices[cx.faces[f]] * 1e3 for f in surface]
+    face_colour = [colours[assembly.grain_mineral[cx.piece_grain[cx.face_pieces[f, 0]]]]
+                   for f in surface]
+    ax.add_collection3d(Poly3DCollection(polys, facecolors=face_colour, edgecolors="#444444",
+                                         linewidths=0.3))
+    lo, hi = cx.solid.lo * 1e3, cx.solid.hi * 1e3
+    ax.set_xlim(lo[0], hi[0])
+    ax.set_ylim(lo[1], hi[1])
+    ax.set_zlim(lo[2], hi[2])
+    ax.set_box_aspect(tuple(hi - lo))
+    ax.view_init(elev=28, azim=-58)
+    ax.set_xlabel("x (mm)")
+    ax.set_ylabel("y (mm)")
+    ax.set_zlabel("z (mm)")
+    ax.set_title("outer faces and borehole wall", fontsize=10)
+
+    ax2 = fig.add_subplot(1, 2, 2)
+    # Just off mid-height: the borehole ring's layer faces can lie exactly on it.
+    z = 0.5 * (cx.solid.lo[2] + cx.solid.hi[2]) + 0.037 * float(cx.solid.extent[2])
+    sec, minerals = _mid_section(assembly, z)
+    ax2.add_collection(PolyCollection(sec, facecolors=[colours[m] for m in minerals],
+                                      edgecolors="#555555", linewidths=0.4))
+    fiss_faces = np.flatnonzero((mesh.face_interface >= 0)
+                                & assembly.interface_fissure[np.maximum(mesh.face_interface, 0)])
+    segs = []
+    for f in fiss_faces:
+        v = cx.vertices[cx.faces[f]]
+        a, b = v, np.roll(v, -1, axis=0)
+        cross = (a[:, 2] - z) * (b[:, 2] - z) < 0
+        if cross.sum() == 2:
+            t = (z - a[cross, 2]) / (b[cross, 2] - a[cross, 2])
+            segs.append((a[cross, :2] + t[:, None] * (b[cross, :2] - a[cross, :2])) * 1e3)
+    if segs:
+        ax2.add_collection(LineCollection(segs, colors=FISSURE_COLOUR, linewidths=1.4))
+    ax2.set_xlim(lo[0], hi[0])
+    ax2.set_ylim(lo[1], hi[1])
+    ax2.set_aspect("equal")
+    ax2.set_xlabel("x (mm)")
+    ax2.set_ylabel("y (mm)")
+    ax2.set_title(f"section z = {z * 1e3:.1f} mm", fontsize=10)
+    ax2.legend(handles=legend_handles(assembly), loc="upper left", bbox_to_anchor=(1.01, 1.0),
+               fontsize=8, frameon=False)
+    if title:
+        fig.suptitle(title, fontsize=11)
+    fig.tight_layout()
+    out = write_atomic(path, lambda p: fig.savefig(p, format="png", bbox_inches="tight"))
+    plt.close(fig)
+    return out
