@@ -39,6 +39,7 @@ SMOKE = "--sim-smoke" in sys.argv
 if SMOKE:  # must be set before numba is imported
     os.environ["NUMBA_ENABLE_CUDASIM"] = "1"
 
+import numba  # noqa: E402
 import numpy as np  # noqa: E402
 
 import grainfrac.physics.model as model_module  # noqa: E402
@@ -134,18 +135,24 @@ def time_gpu(n: int, steps: int, first: bool) -> dict:
     }
 
 
-def time_cpu(n: int, steps: int) -> dict:
+def time_cpu(n: int, steps: int, threads: int) -> dict:
+    """The CPU backend's step rate on ``threads`` numba threads (1: the serial kernels)."""
     block = build(n)
     solver = MechanicsSolver(block.model, pull_loads(block, PULL))
-    t0 = time.perf_counter()
-    solver.cycle(2)  # compiles (or loads the cache)
-    t_first = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    solver.cycle(steps)
-    t_run = time.perf_counter() - t0
+    before = numba.get_num_threads()
+    numba.set_num_threads(threads)
+    try:
+        t0 = time.perf_counter()
+        solver.cycle(2)  # compiles (or loads the cache)
+        t_first = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        solver.cycle(steps)
+        t_run = time.perf_counter() - t0
+    finally:
+        numba.set_num_threads(before)
     m = block.model.n_elements
     return {"n": n, "tets": m, "steps": steps, "first_call_s": t_first, "run_s": t_run,
-            "rate": m * steps / t_run}
+            "rate": m * steps / t_run, "threads": threads}
 
 
 def check_setup(n: int) -> None:
@@ -199,11 +206,14 @@ def main() -> None:
             f"{1e3 * r['run_s'] / r['steps']:.4f} ms/step, {r['cracks']} cracks so far")
         say(f"        split (ms/step, synchronised): {split}; device->host (whole state) "
             f"{r['pull_s']:.3f} s")
-    cpu = time_cpu(cpu_n, steps_for(6 * cpu_n**3) if args.sim_smoke else
-                   int(np.clip(2e7 / (6 * cpu_n**3), 20, 400)))
-    say(f"CPU backend (numba, 1 thread), n={cpu_n}, tets {cpu['tets']:.3e}: {cpu['steps']} steps"
-        f" in {cpu['run_s']:.3f} s: {cpu['rate']:.3e} tet-steps/s (first call "
-        f"{cpu['first_call_s']:.2f} s)")
+    cpu_steps = (steps_for(6 * cpu_n**3) if args.sim_smoke else
+                 int(np.clip(2e7 / (6 * cpu_n**3), 20, 400)))
+    for threads in sorted({1, numba.config.NUMBA_NUM_THREADS}):
+        cpu = time_cpu(cpu_n, cpu_steps, threads)
+        say(f"CPU backend (numba, {threads} thread{'s' if threads > 1 else ''}), n={cpu_n}, "
+            f"tets {cpu['tets']:.3e}: {cpu['steps']} steps in {cpu['run_s']:.3f} s: "
+            f"{cpu['rate']:.3e} tet-steps/s (first call {cpu['first_call_s']:.2f} s)")
+    # The ratios below are against the last line: all the machine's threads.
     same = [r for r in results if r["n"] == cpu_n]
     if same:
         say(f"GPU/CPU at the same size ({same[0]['tets']:.2e} tets): "
