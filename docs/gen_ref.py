@@ -611,7 +611,7 @@ def claims_figure(data: dict[str, Any]) -> bytes | None:
     rows = math.ceil(len(claims) / cols)
     fig, axes = plt.subplots(rows, cols, figsize=(4 * cols, 3.1 * rows), squeeze=False)
     for ax, c in zip(axes.flat, claims, strict=False):
-        for i, (point, values) in enumerate(c["values"].items()):
+        for i, values in enumerate(c["values"].values()):
             vals = [v for v in values if v is not None and math.isfinite(v)]
             ax.plot([i] * len(vals), vals, "o", alpha=0.6, ms=4)
             if vals:
