@@ -433,7 +433,7 @@ class Run:
 
 # -- entry points ---------------------------------------------------------------------
 def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
-    """summary.json of a finished (or stopped) run: DESIGN.md section 6 keys."""
+    """summary.json of a finished (or stopped) run: the keys of docs/outputs.md."""
     import grainfrac
     from grainfrac.analysis import breakdown_summary, contact_fractions, fracture_summary
 
