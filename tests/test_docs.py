@@ -53,7 +53,12 @@ def site(tmp_path_factory) -> Path:
 
 
 def _text(path: Path) -> str:
-    return html.unescape(path.read_text(encoding="utf-8"))
+    return path.read_text(encoding="utf-8")
+
+
+def _cells(row_html: str) -> str:
+    """The text of an HTML table row, cells separated by ``|``."""
+    return html.unescape(re.sub(r"<[^>]+>", "|", row_html))
 
 
 def _section(page: str, anchor: str) -> str:
@@ -92,10 +97,10 @@ def test_field_reference_lists_every_field_of_every_schema(site):
 def test_field_reference_states_type_unit_default_and_range(site):
     page = _text(site / "reference" / "configuration" / "index.html")
     row = re.search(r"<code>rate_ml_per_min</code>.*?</tr>", _section(page, "injectstage"), re.S)
-    cells = re.sub(r"<[^>]+>", "|", row.group(0))
+    cells = _cells(row.group(0))
     assert "number" in cells and "ml/min" in cells and "required" in cells and "> 0" in cells
     row = re.search(r"<code>fraction</code>.*?</tr>", _section(page, "fissurespec"), re.S)
-    assert ">= 0 and < 1" in re.sub(r"<[^>]+>", "|", row.group(0))
+    assert ">= 0 and < 1" in _cells(row.group(0))
 
 
 def test_cli_reference_lists_every_command_and_option(site):

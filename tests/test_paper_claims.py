@@ -4,7 +4,7 @@ Run with ``pytest -m slow tests/test_paper_claims.py``. The runs are three sweep
 the example scenarios (``examples/*.toml``, default slab, Table 2 rock) on a local
 Dask cluster, one worker per core:
 
-* SCDA charging in stress Cases 1-4, seeds 0-4 (20 runs);
+* SCDA charging in stress Cases 1-4, seeds 0-9 (40 runs);
 * HS-only at 90 ml/min in Cases 1-3 and the hybrid in Case 2, seeds 0-9 (40 runs;
   the Case 2 HS-only runs pair with the hybrid runs: same seed, same grains).
 
@@ -49,7 +49,7 @@ slow = pytest.mark.slow
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 CASES = ("case1", "case2", "case3", "case4")
-SCDA_SEEDS = list(range(5))
+SCDA_SEEDS = list(range(10))
 HS_SEEDS = list(range(10))
 WELL_RADIUS_MM = 5.0           # the examples' 10 mm borehole
 SCDA_COUNT_RADIUS_MM = 1.6 * WELL_RADIUS_MM
