@@ -114,3 +114,19 @@ def test_outputs_page_lists_every_snapshot_field(example_run):
         fields = set(mesh.point_data) | set(mesh.cell_data)
         missing = sorted(f for f in fields if f not in documented)
         assert not missing, f"{name} fields not described in docs/outputs.md: {missing}"
+
+
+@pytest.mark.parametrize("test", ["bts", "permeability"])
+def test_outputs_page_lists_every_lab_test_key_and_column(tmp_path, test):
+    import grainfrac as gf
+
+    out = tmp_path / test
+    summary = gf.run_labtest(gf.lab_test_config(test), out)
+    documented = _documented()
+    missing = sorted(k for k in summary if k not in documented)
+    assert not missing, f"{test} summary keys not described in docs/outputs.md: {missing}"
+    if (out / "curve.csv").is_file():
+        with open(out / "curve.csv", newline="") as fh:
+            header = next(csv.reader(fh))
+        text = OUTPUTS.read_text()
+        assert all(c in text for c in header), header
