@@ -683,5 +683,14 @@ def main() -> None:
         fh.write((ROOT / "CHANGELOG.md").read_text().replace("](docs/", "]("))
 
 
-if __name__ == "<run_path>":  # run by mkdocs-gen-files
+def _in_mkdocs_build() -> bool:
+    """True inside ``mkdocs build`` (outside, gen-files would write into docs/ itself)."""
+    try:
+        from mkdocs_gen_files.editor import FilesEditor
+    except ImportError:
+        return False
+    return getattr(FilesEditor, "_current", None) is not None
+
+
+if __name__ == "<run_path>" and _in_mkdocs_build():  # run by mkdocs-gen-files
     main()
