@@ -43,10 +43,12 @@ _STREAMS = ("tessellation", "minerals", "grain_weibull", "contact_weibull", "fis
 class GrainSpec(StrictModel):
     """Grain size and mesh resolution (paper: edges 3-8 mm, zones 2 mm)."""
 
-    min_edge_mm: float = Field(3.0, gt=0)
-    max_edge_mm: float = Field(8.0, gt=0)
-    zone_size_mm: float = Field(2.0, gt=0)
-    lloyd_iterations: int = Field(30, ge=0, le=1000)
+    min_edge_mm: float = Field(3.0, gt=0, description="shortest grain edge [mm]; < max_edge_mm")
+    max_edge_mm: float = Field(8.0, gt=0, description="longest grain edge [mm]")
+    zone_size_mm: float = Field(
+        2.0, gt=0, description="element (zone) edge length [mm]; <= max_edge_mm")
+    lloyd_iterations: int = Field(
+        30, ge=0, le=1000, description="Lloyd relaxation steps of the Voronoi seeds")
 
     @model_validator(mode="after")
     def _ordered(self) -> GrainSpec:
@@ -66,19 +68,27 @@ class GrainSpec(StrictModel):
 class FissureSpec(StrictModel):
     """Pre-existing defects: a fraction of grain boundaries start unbonded (c = 0, sigma_T = 0)."""
 
-    fraction: float = Field(0.0, ge=0, lt=1)
-    clear_radius_mm: float = Field(0.0, ge=0)
+    fraction: float = Field(
+        0.0, ge=0, lt=1, description="fraction of grain boundaries that start unbonded [-]")
+    clear_radius_mm: float = Field(
+        0.0, ge=0, description="no fissure closer than this to the well centre [mm]; 0 without "
+        "a borehole, < half the smallest side")
 
 
 class SpecimenConfig(StrictModel):
     """Everything needed to build an assembly: ``grainfrac specimen SPEC.toml``."""
 
-    seed: int = Field(0, ge=0)
-    dimension: Literal[2, 3] = 2
-    rock: str | materials.RockRecipe = "strathbogie-granite"
-    specimen: SpecimenShapeSpec = Field(default_factory=SlabSpec)
-    grains: GrainSpec = Field(default_factory=GrainSpec)
-    fissures: FissureSpec = Field(default_factory=FissureSpec)
+    seed: int = Field(0, ge=0, description="random seed of grains, minerals, Weibull draws")
+    dimension: Literal[2, 3] = Field(
+        2, description="2: plane-strain slice (triangles); 3: polyhedral grains (tetrahedra)")
+    rock: str | materials.RockRecipe = Field(
+        "strathbogie-granite", description="rock recipe: a preset name, a TOML path (relative "
+        "to the file) or an inline table")
+    specimen: SpecimenShapeSpec = Field(
+        default_factory=SlabSpec, description="specimen shape and size, chosen by `shape`")
+    grains: GrainSpec = Field(default_factory=GrainSpec, description="grain size and mesh")
+    fissures: FissureSpec = Field(default_factory=FissureSpec,
+                                  description="pre-existing unbonded grain boundaries")
 
     @model_validator(mode="before")
     @classmethod

@@ -194,12 +194,14 @@ LABELS = {"ucs_MPa": "UCS (MPa)", "bts_MPa": "BTS (MPa)", "kic_MPa_sqrt_m": "K_I
 class Targets(StrictModel):
     """Laboratory values to reproduce (defaults: paper Table 3 and Sect. 3.2)."""
 
-    ucs_MPa: float = Field(120.94, gt=0)
-    bts_MPa: float = Field(6.38, gt=0)
-    kic_MPa_sqrt_m: float = Field(1.35, gt=0)
-    youngs_modulus_GPa: float = Field(17.13, gt=0)
-    poisson_ratio: float = Field(0.24, gt=0, lt=0.5)
-    permeability_m2: float = Field(1.0e-19, gt=0)
+    ucs_MPa: float = Field(120.94, gt=0, description="uniaxial compressive strength [MPa]")
+    bts_MPa: float = Field(6.38, gt=0, description="Brazilian tensile strength [MPa]")
+    kic_MPa_sqrt_m: float = Field(
+        1.35, gt=0, description="fracture toughness K_IC from the NSCB test [MPa m^0.5]")
+    youngs_modulus_GPa: float = Field(17.13, gt=0, description="Young's modulus E [GPa]")
+    poisson_ratio: float = Field(0.24, gt=0, lt=0.5, description="Poisson's ratio nu [-]")
+    permeability_m2: float = Field(
+        1.0e-19, gt=0, description="intact permeability, constant-head test [m2]")
 
 
 class CalibrationConfig(StrictModel):
@@ -207,17 +209,19 @@ class CalibrationConfig(StrictModel):
 
     name: str = Field("calibrated-rock", description="name of the calibrated recipe")
     rock: str | materials.RockRecipe = Field("strathbogie-granite", description="start recipe")
-    targets: Targets = Field(default_factory=Targets)
+    targets: Targets = Field(default_factory=Targets, description="laboratory values to match")
     seeds: list[int] = Field(default_factory=lambda: [0, 1, 2], min_length=1,
                              description="grain realisations averaged per evaluation")
     validation_seeds: list[int] = Field(
         default_factory=list,
         description="held-out realisations on which the calibrated recipe is measured too "
                     "(none by default); they must differ from seeds")
-    grains: GrainSpec = Field(default_factory=lambda: GrainSpec(**LAB_GRAINS))
+    grains: GrainSpec = Field(default_factory=lambda: GrainSpec(**LAB_GRAINS),
+                              description="grain size and mesh of the lab specimens")
     tolerance: float = Field(0.02, gt=0, lt=0.5,
                              description="stop when every calibrated mean is this close")
-    max_evaluations: int = Field(16, ge=1, le=200)
+    max_evaluations: int = Field(
+        16, ge=1, le=200, description="root-finder evaluations at most")
     factors: list[FactorName] | dict[FactorName, TargetName] = Field(
         default_factory=lambda: ["stiffness", "tensile_strength", "cohesion"], min_length=1,
         description="factors to solve for, each with its default target (list) or the "

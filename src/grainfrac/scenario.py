@@ -242,7 +242,7 @@ class FluidSpec(StrictModel):
 class EquilibrateStage(StrictModel):
     """Apply the in-situ stress with bonds held elastic and equilibrate (paper Fig. 9b)."""
 
-    kind: Literal["equilibrate"] = "equilibrate"
+    kind: Literal["equilibrate"] = Field("equilibrate", description="selects this stage")
     unbalanced_ratio: float = Field(1e-5, gt=0, lt=1, description="target unbalanced-force ratio")
     max_steps: int = Field(300_000, gt=0, description="step limit")
 
@@ -269,7 +269,7 @@ class ScdaStage(StrictModel):
     when run on to the decay at 347 ms, same radial fractures and extent).
     """
 
-    kind: Literal["scda"] = "scda"
+    kind: Literal["scda"] = Field("scda", description="selects this stage")
     peak_pressure_MPa: float = Field(45.0, gt=0, description="peak expansive pressure [MPa]")
     velocity_scale_mm_per_s: float = Field(5.0, gt=0, description="f of Eq. 9 [mm/s]")
     decay_rate_per_s: float = Field(20.0, gt=0, description="b of Eq. 9 [1/s]")
@@ -305,7 +305,7 @@ class DrillOutStage(StrictModel):
     the injection started into a collapsing rock.
     """
 
-    kind: Literal["drill_out"] = "drill_out"
+    kind: Literal["drill_out"] = Field("drill_out", description="selects this stage")
     relax_steps: int = Field(20_000, ge=0, description="mechanical steps after removal, at least")
     unbalanced_ratio: float = Field(1e-5, gt=0, lt=1, description="target unbalanced-force ratio")
     max_steps: int = Field(300_000, gt=0, description="step limit")
@@ -327,7 +327,7 @@ class InjectStage(StrictModel):
     specimen's outer boundary (cracks of earlier stages do not count).
     """
 
-    kind: Literal["inject"] = "inject"
+    kind: Literal["inject"] = Field("inject", description="selects this stage")
     rate_ml_per_min: float = Field(gt=0, description="injection rate [ml/min]")
     duration_ms: float | None = Field(None, gt=0, description="injection time [ms]")
     volume_ml: float | None = Field(None, gt=0, description="injected volume [ml]")
@@ -431,13 +431,18 @@ class Scenario(StrictModel):
     name: str = Field("scenario", description="run name")
     seed: int = Field(0, ge=0, description="random seed of grains, minerals, Weibull draws")
     rock: str | materials.RockRecipe = Field("strathbogie-granite", description="rock recipe")
-    specimen: SpecimenShapeSpec = Field(default_factory=SlabSpec)
-    grains: GrainSpec = Field(default_factory=GrainSpec)
-    fissures: FissureSpec = Field(default_factory=FissureSpec)
-    stress: InSituStress = Field(default_factory=InSituStress)
-    fluid: FluidSpec = Field(default_factory=FluidSpec)
+    specimen: SpecimenShapeSpec = Field(
+        default_factory=SlabSpec, description="specimen: a slab or rectangle, chosen by `shape`")
+    grains: GrainSpec = Field(default_factory=GrainSpec, description="grain size and mesh")
+    fissures: FissureSpec = Field(default_factory=FissureSpec,
+                                  description="pre-existing unbonded grain boundaries")
+    stress: InSituStress = Field(default_factory=InSituStress,
+                                 description="far-field in-situ stress (paper Table 6)")
+    fluid: FluidSpec = Field(default_factory=FluidSpec,
+                             description="fluid, apertures and permeable sides")
     stages: list[Stage] = Field(min_length=1, description="stages, run in order")
-    output: OutputSpec = Field(default_factory=OutputSpec)
+    output: OutputSpec = Field(default_factory=OutputSpec,
+                               description="snapshot and checkpoint intervals")
 
     @model_validator(mode="before")
     @classmethod

@@ -32,7 +32,7 @@ from grainfrac.viz.pressure import plot_stage_history, plot_well_pressure
 
 
 def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
-    """summary.json of a finished (or stopped) run: DESIGN.md section 6 keys."""
+    """summary.json of a finished (or stopped) run: the keys of docs/outputs.md."""
     a = run.assembly
     s = run.solver
     coupled = run.world.coupled

@@ -22,7 +22,7 @@ def contact_type_fractions(assembly: GrainAssembly, mask: np.ndarray | None = No
 
 
 def specimen_summary(assembly: GrainAssembly, wall_time_s: float | None = None) -> dict[str, Any]:
-    """Scalar description of an assembly, with the DESIGN.md summary key names."""
+    """Scalar description of an assembly, with the summary key names of docs/outputs.md."""
     mesh = assembly.mesh
     achieved = assembly.volume_fractions()
     return {

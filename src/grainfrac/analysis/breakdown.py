@@ -1,10 +1,11 @@
 """Breakdown pressure and the abruptness of the pressure drop after it.
 
-DESIGN.md section 3: *breakdown pressure is the peak of the well pressure before
-its first sustained drop during injection*. All functions take plain arrays in SI
-units (s, Pa), so they work on a run's ``history.csv`` (after converting MPa to
-Pa) as well as on in-memory histories. Pass only the injection stage: the
-functions do not know when injection started or stopped.
+docs/outputs.md (``breakdown_pressure_MPa``): *breakdown pressure is the peak
+of the well pressure before its first sustained drop during injection*. All
+functions take plain arrays in SI units (s, Pa), so they work on a run's
+``history.csv`` (after converting MPa to Pa) as well as on in-memory histories.
+Pass only the injection stage: the functions do not know when injection
+started or stopped.
 
 Samples whose time or pressure is not finite (e.g. ``NaN`` in a history column
 before the well was pressurised) are ignored; indices returned always refer to
@@ -133,7 +134,7 @@ DROP_WINDOW_S = 1e-3  # how long after breakdown the fall of the well pressure i
 
 
 def breakdown_summary(time, pressure, **kwargs) -> dict[str, float | None]:
-    """The summary.json breakdown keys (DESIGN.md section 6).
+    """The summary.json breakdown keys (docs/outputs.md).
 
     Parameters
     ----------

@@ -1,6 +1,6 @@
 """Fracture geometry and crack statistics from a crack set.
 
-DESIGN.md section 3 and paper sections 5.1-5.5: number of radial fractures and
+docs/outputs.md and paper sections 5.1-5.5: number of radial fractures and
 their extent, tortuosity of the main fracture, tensile / shear counts and their
 ratio, contact-type fractions (T among all contacts, C among failed ones) and
 the strain energy released, split by failure mode.
@@ -628,7 +628,7 @@ def contact_fractions(pair_of_all_contacts, pair_of_failed,
 def fracture_summary(x, y, mode, energy=None, *, center: Sequence[float] = (0.0, 0.0),
                      well_radius: float, connect_distance: float,
                      radius: float | None = None) -> dict[str, int | float | None]:
-    """The summary.json crack and fracture keys (DESIGN.md section 6) of a crack set.
+    """The summary.json crack and fracture keys (docs/outputs.md) of a crack set.
 
     Parameters
     ----------

@@ -25,11 +25,13 @@ from grainfrac.units import MM
 class SlabSpec(StrictModel):
     """Square/rectangular slab with a central borehole (paper Fig. 9; sizes not stated there)."""
 
-    shape: Literal["slab"] = "slab"
-    width_mm: float = Field(100.0, gt=0)
-    height_mm: float = Field(100.0, gt=0)
-    thickness_mm: float = Field(10.0, gt=0)
-    borehole_diameter_mm: float = Field(10.0, ge=0)
+    shape: Literal["slab"] = Field("slab", description="selects this shape")
+    width_mm: float = Field(100.0, gt=0, description="extent along x [mm]")
+    height_mm: float = Field(100.0, gt=0, description="extent along y [mm]")
+    thickness_mm: float = Field(
+        10.0, gt=0, description="out-of-plane thickness of the plane-strain slab [mm]")
+    borehole_diameter_mm: float = Field(
+        10.0, ge=0, description="central borehole [mm]; 0: none; < half the smallest side")
 
     @model_validator(mode="after")
     def _borehole_fits(self) -> SlabSpec:
@@ -45,20 +47,22 @@ class SlabSpec(StrictModel):
 class DiskSpec(StrictModel):
     """Brazilian (BTS) disk, section of a cylinder (paper Table 3: D 38 mm, T 19 mm)."""
 
-    shape: Literal["disk"] = "disk"
-    diameter_mm: float = Field(38.0, gt=0)
-    thickness_mm: float = Field(19.0, gt=0)
+    shape: Literal["disk"] = Field("disk", description="selects this shape")
+    diameter_mm: float = Field(38.0, gt=0, description="disk diameter D [mm]")
+    thickness_mm: float = Field(19.0, gt=0, description="disk thickness T [mm]")
 
 
 class SemiDiskSpec(StrictModel):
     """Notched semi-circular bend (NSCB) specimen (paper Table 3: D 50, T 20, A 8.33, S 40 mm)."""
 
-    shape: Literal["semi_disk"] = "semi_disk"
-    diameter_mm: float = Field(50.0, gt=0)
-    thickness_mm: float = Field(20.0, gt=0)
-    notch_length_mm: float = Field(8.33, ge=0)
-    notch_width_mm: float = Field(1.0, gt=0)
-    support_span_mm: float = Field(40.0, gt=0)
+    shape: Literal["semi_disk"] = Field("semi_disk", description="selects this shape")
+    diameter_mm: float = Field(50.0, gt=0, description="diameter D of the full disk [mm]")
+    thickness_mm: float = Field(20.0, gt=0, description="thickness T [mm]")
+    notch_length_mm: float = Field(
+        8.33, ge=0, description="notch length A [mm]; < 0.8 x radius")
+    notch_width_mm: float = Field(1.0, gt=0, description="notch width [mm]; < radius / 4")
+    support_span_mm: float = Field(
+        40.0, gt=0, description="distance S between the two supports [mm]; < diameter_mm")
 
     @model_validator(mode="after")
     def _notch_fits(self) -> SemiDiskSpec:
@@ -84,10 +88,10 @@ class SemiDiskSpec(StrictModel):
 class RectangleSpec(StrictModel):
     """UCS specimen section (paper Table 3: D 22.5 mm, H 45 mm)."""
 
-    shape: Literal["rectangle"] = "rectangle"
-    width_mm: float = Field(22.5, gt=0)
-    height_mm: float = Field(45.0, gt=0)
-    thickness_mm: float = Field(22.5, gt=0)
+    shape: Literal["rectangle"] = Field("rectangle", description="selects this shape")
+    width_mm: float = Field(22.5, gt=0, description="width (the cylinder's diameter D) [mm]")
+    height_mm: float = Field(45.0, gt=0, description="height H, the loaded direction [mm]")
+    thickness_mm: float = Field(22.5, gt=0, description="out-of-plane thickness [mm]")
 
 
 SpecimenShapeSpec = Annotated[

@@ -1,4 +1,4 @@
-"""Run-directory tables: history.csv and cracks.csv (DESIGN.md section 6)."""
+"""Run-directory tables: history.csv and cracks.csv (docs/outputs.md)."""
 
 from __future__ import annotations
 

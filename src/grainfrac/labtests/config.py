@@ -114,12 +114,14 @@ class LoadingSpec(StrictModel):
 class PermeabilitySpec(StrictModel):
     """Constant-head test (paper Eq. 8, Table 4): inlet on top, outlet at the bottom."""
 
-    pressure_in_MPa: float = Field(TABLE4_PRESSURE_IN_MPA, ge=0)
-    pressure_out_MPa: float = Field(TABLE4_PRESSURE_OUT_MPA, ge=0)
+    pressure_in_MPa: float = Field(
+        TABLE4_PRESSURE_IN_MPA, ge=0, description="inlet pressure [MPa]; > pressure_out_MPa")
+    pressure_out_MPa: float = Field(TABLE4_PRESSURE_OUT_MPA, ge=0,
+                                    description="outlet pressure [MPa]")
     initial_aperture_m: float | None = Field(
         None, gt=0, lt=1e-3,
         description="a0 [m]; default: the rock's hydraulic.initial_aperture_m")
-    viscosity_Pa_s: float = Field(1.0e-3, gt=0)
+    viscosity_Pa_s: float = Field(1.0e-3, gt=0, description="fluid viscosity [Pa s]")
 
     @model_validator(mode="after")
     def _head(self) -> PermeabilitySpec:
@@ -133,16 +135,20 @@ class PermeabilitySpec(StrictModel):
 class LabTestConfig(StrictModel):
     """One virtual laboratory test: ``grainfrac labtest TEST --rock RECIPE``."""
 
-    test: Literal["ucs", "bts", "nscb", "permeability"]
-    name: str | None = None
-    seed: int = Field(0, ge=0)
-    rock: str | materials.RockRecipe = "strathbogie-granite"
+    test: Literal["ucs", "bts", "nscb", "permeability"] = Field(description="which test")
+    name: str | None = Field(None, description="run name (default: the test's name)")
+    seed: int = Field(0, ge=0, description="random seed of grains, minerals, Weibull draws")
+    rock: str | materials.RockRecipe = Field(
+        "strathbogie-granite", description="rock recipe: a preset name, a TOML path or inline")
     specimen: SpecimenShapeSpec | None = Field(None, description="default: paper Table 3")
-    grains: GrainSpec = Field(default_factory=lambda: GrainSpec(**LAB_GRAINS))
+    grains: GrainSpec = Field(default_factory=lambda: GrainSpec(**LAB_GRAINS),
+                              description="grain size and mesh (lab default 2-5 mm)")
     fissures: FissureSpec = Field(default_factory=FissureSpec,
                                   description="grain boundaries that start unbonded (none)")
-    loading: LoadingSpec = Field(default_factory=LoadingSpec)
-    permeability: PermeabilitySpec = Field(default_factory=PermeabilitySpec)
+    loading: LoadingSpec = Field(default_factory=LoadingSpec,
+                                 description="platen loading of ucs, bts and nscb")
+    permeability: PermeabilitySpec = Field(default_factory=PermeabilitySpec,
+                                           description="heads of the permeability test")
 
     @model_validator(mode="after")
     def _shape_fits_test(self) -> LabTestConfig:

@@ -2,8 +2,8 @@
 
 A lab-test run directory holds ``config.toml`` (resolved), ``curve.csv``
 (mechanical tests), ``cracks.csv``, ``figures/`` (load curve, crack pattern)
-and ``summary.json`` (written last, atomically) with the DESIGN.md section 6
-keys: ``ucs_MPa``, ``youngs_modulus_GPa``, ``poisson_ratio``, ``bts_MPa``,
+and ``summary.json`` (written last, atomically) with the keys of
+docs/outputs.md: ``ucs_MPa``, ``youngs_modulus_GPa``, ``poisson_ratio``, ``bts_MPa``,
 ``kic_MPa_sqrt_m`` or ``permeability_m2``.
 """
 

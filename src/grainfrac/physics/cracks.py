@@ -36,7 +36,7 @@ class CrackCatalogue:
         return int(np.count_nonzero(self.mode == SHEAR))
 
     def rows(self, pair_names: tuple[str, ...]) -> list[dict]:
-        """Rows for cracks.csv (DESIGN.md section 6: mm and J at the edge)."""
+        """Rows for cracks.csv (docs/outputs.md: mm and J at the edge)."""
         return [
             {"time_s": float(t), "x_mm": float(x * 1e3), "y_mm": float(y * 1e3),
              "mode": MODE_NAMES[int(m)], "contact_type": pair_names[int(p)],

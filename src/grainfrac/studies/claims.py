@@ -32,7 +32,11 @@ Kinds of claim (see :class:`Claim`):
     in the same runs, ``quantity`` exceeds ``other`` (paired over every run
     of ``points``);
 ``within``
-    the mean lies within ``tolerance`` (relative) of ``reference``.
+    the mean lies within ``tolerance`` (relative) of ``reference``;
+``every_run``
+    a count, not an interval: every run at every point reaches ``threshold``
+    (holds when all do, does not hold when any run falls short; at least two
+    runs per point are needed).
 """
 
 from __future__ import annotations
@@ -67,7 +71,7 @@ class Claim:
     id: str
     text: str
     quantity: str
-    kind: Literal["at_least", "greater", "trend", "exceeds", "within"]
+    kind: Literal["at_least", "greater", "trend", "exceeds", "within", "every_run"]
     points: tuple[str, ...]
     paper: str = ""
     threshold: float | None = None
@@ -259,8 +263,29 @@ def _within(claim: Claim, result: SweepResult, per_point: dict[str, stats.Summar
     return Verdict(claim, verdict, text, reason, s.interval)
 
 
+def _every_run(claim: Claim, result: SweepResult, per_point: dict[str, stats.Summary]
+               ) -> Verdict:
+    v = float(claim.threshold)
+    counts, short, few = [], [], []
+    for point in claim.points:
+        values = [float(x) for x in stats.finite(result.values(point, claim.quantity))]
+        reached = sum(x >= v for x in values)
+        counts.append(f"{point} {reached} of {len(values)} (min {fmt(min(values))})")
+        if reached < len(values):
+            short.append(point)
+        if len(values) < 2:
+            few.append(point)
+    text = f"runs with {claim.quantity} >= {v:g}: " + ", ".join(counts)
+    if short:
+        return Verdict(claim, FAILS, text, f"some runs below {v:g} at {', '.join(short)}")
+    if few:
+        return Verdict(claim, UNDETERMINED, text, f"fewer than 2 valid runs at "
+                       f"{', '.join(few)} (run more realisations)")
+    return Verdict(claim, HOLDS, text, f"every run at or above {v:g}")
+
+
 _KINDS = {"at_least": _at_least, "greater": _greater, "trend": _trend, "exceeds": _exceeds,
-          "within": _within}
+          "within": _within, "every_run": _every_run}
 
 __all__ = ["FAILS", "HOLDS", "NULL_REASONS", "OPEN", "UNDETERMINED", "Claim", "Verdict",
            "evaluate", "fmt"]

@@ -74,7 +74,7 @@ from grainfrac.io.config import StrictModel, read_toml, validate
 from grainfrac.io.files import write_csv, write_json
 from grainfrac.scenario import ScdaStage, Scenario, resolved_dict
 
-# summary.json keys of DESIGN.md section 6 (and the driver's extras), in table order.
+# summary.json keys (docs/outputs.md), in table order.
 SCALAR_QUANTITIES = (
     "breakdown_pressure_MPa", "breakdown_time_s", "peak_well_pressure_MPa",
     "peak_expansive_pressure_MPa", "injected_volume_ml", "n_grains", "n_elements",

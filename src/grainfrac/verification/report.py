@@ -1,4 +1,4 @@
-"""Comparison rows shared by every verification case (DESIGN.md section 6).
+"""Comparison rows shared by every verification case (docs/outputs.md, ``grainfrac verify``).
 
 A verification case returns a list of :class:`Comparison`: one simulated scalar
 next to its analytical (or reference) value and a relative tolerance.

@@ -1,0 +1,133 @@
+"""Regenerate the data behind the validation pages (docs/data/*.json).
+
+The validation pages are built from these files by ``docs/gen_ref.py``; nothing on
+them is typed by hand. Three sources, one subcommand each::
+
+    python docs/scripts/update_validation.py verify            # grainfrac verify --json
+    python docs/scripts/update_validation.py verify --kgd      # ... and the KGD case (~2.5 min)
+    python docs/scripts/update_validation.py claims            # the slow paper-claim tests
+    python docs/scripts/update_validation.py study DIR         # a `grainfrac study paper` run
+
+``verify`` runs ``grainfrac verify CASE --json`` for each case and writes
+``docs/data/verification.json``. ``claims`` runs ``pytest -m slow
+tests/test_paper_claims.py`` (tens of minutes on 2 cores; its sweeps are kept in
+``--cache``, so a second call computes only what is missing) and writes
+``docs/data/paper-claims.json``. ``study`` copies the verdicts of a finished
+``grainfrac study paper --out DIR`` (its ``claims.json`` and per-run values) into
+``docs/data/study-claims.json``. Rebuild the site afterwards (``mkdocs build --strict``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import datetime
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+DATA = ROOT / "docs" / "data"
+FAST_CASES = ("kirsch", "lame", "cubic-law")
+
+
+def _version() -> str:
+    import grainfrac
+
+    return grainfrac.__version__
+
+
+def verify(kgd: bool) -> Path:
+    """Run the verification cases through the command line and keep their JSON rows."""
+    cases = [*FAST_CASES, "kgd"] if kgd else list(FAST_CASES)
+    out = []
+    for case in cases:
+        start = time.perf_counter()
+        proc = subprocess.run([sys.executable, "-m", "grainfrac.cli", "verify", case, "--json"],
+                              capture_output=True, text=True, cwd=ROOT)
+        if proc.returncode not in (0, 1):  # 1: ran, some quantity out of tolerance
+            raise SystemExit(f"grainfrac verify {case} failed:\n{proc.stderr}")
+        rows = [json.loads(line) for line in proc.stdout.splitlines() if line.startswith("{")]
+        out.append({"case": case, "wall_time_s": time.perf_counter() - start, "rows": rows})
+        print(f"{case}: {sum(r['passed'] for r in rows)} of {len(rows)} passed")
+    command = "python docs/scripts/update_validation.py verify" + (" --kgd" if kgd else "")
+    path = DATA / "verification.json"
+    _write(path, {"command": command, "generated": datetime.date.today().isoformat(),
+                  "grainfrac_version": _version(), "cases": out})
+    return path
+
+
+def claims(cache: Path) -> Path:
+    """Run the slow claim tests, which write their verdicts to docs/data/paper-claims.json."""
+    path = DATA / "paper-claims.json"
+    env = {**os.environ, "GRAINFRAC_CLAIMS_DIR": str(cache.resolve()),
+           "GRAINFRAC_CLAIMS_JSON": str(path)}
+    proc = subprocess.run([sys.executable, "-m", "pytest", "-m", "slow", "-q",
+                           "tests/test_paper_claims.py"], cwd=ROOT, env=env)
+    if not path.is_file():
+        raise SystemExit("the claim tests wrote no verdicts")
+    if proc.returncode:
+        print("some claims did not hold; the page shows which", file=sys.stderr)
+    return path
+
+
+def study(directory: Path) -> Path:
+    """Verdicts and per-run values of a finished ``grainfrac study paper --out DIR``."""
+    verdicts = json.loads((directory / "claims.json").read_text())
+    rows = []
+    for v in verdicts:
+        values = _study_values(directory / v["study"], v["quantity"])
+        rows.append({**v, "id": v["claim"], "threshold": None, "values": values})
+    path = DATA / "study-claims.json"
+    _write(path, {"command": f"grainfrac study paper --out {directory.name}; python "
+                             f"docs/scripts/update_validation.py study {directory.name}",
+                  "generated": datetime.date.today().isoformat(),
+                  "grainfrac_version": _version(), "claims": rows})
+    return path
+
+
+def _study_values(sweep_dir: Path, quantity: str) -> dict[str, list[float | None]]:
+    runs = sweep_dir / "runs.csv"
+    if not runs.is_file():
+        return {}
+    values: dict[str, list[float | None]] = {}
+    with open(runs, newline="") as fh:
+        for row in csv.DictReader(fh):
+            if row.get("status") != "done":
+                continue
+            cell = row.get(quantity, "")
+            values.setdefault(row["point"], []).append(float(cell) if cell else None)
+    return values
+
+
+def _write(path: Path, data: dict) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(data, indent=1) + "\n")
+    print(f"wrote {path.relative_to(ROOT)}")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = parser.add_subparsers(dest="what", required=True)
+    v = sub.add_parser("verify", help="grainfrac verify CASE --json for every case")
+    v.add_argument("--kgd", action="store_true", help="include the KGD case (~2.5 min)")
+    c = sub.add_parser("claims", help="the slow paper-claim tests")
+    c.add_argument("--cache", type=Path, default=ROOT / "build" / "claims",
+                   help="where the claim sweeps are kept between calls")
+    s = sub.add_parser("study", help="verdicts of a grainfrac study paper directory")
+    s.add_argument("directory", type=Path)
+    args = parser.parse_args()
+    if args.what == "verify":
+        verify(args.kgd)
+    elif args.what == "claims":
+        claims(args.cache)
+    else:
+        study(args.directory)
+
+
+if __name__ == "__main__":
+    main()
