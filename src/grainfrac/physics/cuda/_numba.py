@@ -2,7 +2,7 @@
 
 numba-cuda 0.x with numpy >= 2.4 fails its first kernel compile because
 ``np.row_stack`` was removed; the alias goes in before ``numba.cuda`` is
-imported (see shared/STACK-NOTES.md). ``NUMBA_ENABLE_CUDASIM=1`` (set before
+imported. ``NUMBA_ENABLE_CUDASIM=1`` (set before
 numba is first imported) runs the kernels on the CPU in numba's simulator.
 """
 

@@ -29,7 +29,7 @@ from grainfrac.physics.records import (
     StepControl,
 )
 
-# 256 threads a block on a GPU (measured best for the tet step, shared/STACK-NOTES.md);
+# 256 threads a block on a GPU (a plain tetrahedron-step probe on an H200 ran best there);
 # the simulator runs each thread as a Python thread, so fewer, smaller blocks.
 DEFAULT_TPB = 32 if SIMULATOR else 256
 DEFAULT_SYNC_EVERY = 1000
