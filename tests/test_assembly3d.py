@@ -92,3 +92,17 @@ def test_bad_3d_specs_fail_with_one_line_naming_the_field(data, field):
     # Union members put their tag into the path (``specimen.slab.borehole...``).
     got = info.value.field
     assert got.startswith(field.split(".")[0]) and got.endswith(field.split(".")[-1]), got
+
+
+def test_stable_step_against_a_regular_quartz_tetrahedron(fissured):
+    """Real-mass step of the tetrahedra, as a fraction of a regular 2 mm quartz tet.
+
+    Issue 38 asks for 0.3; this slab reaches 0.153 (docs/decisions/3d-mesher.md):
+    the limit is single-tetrahedron grain corners at Voronoi edges of 0.4-0.9 mm.
+    The bound guards against a return of the 0.005-0.02 steps of sub-0.1 mm edges.
+    """
+    from grainfrac.specimen_report import stable_steps3d
+
+    ratio = stable_steps3d(fissured)["grains_ratio"]
+    print(f"stable step / regular 2 mm quartz tet (tets only, real mass): {ratio:.3f}")
+    assert ratio >= 0.15

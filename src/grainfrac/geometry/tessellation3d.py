@@ -39,6 +39,7 @@ from grainfrac.geometry.solids3d import BOREHOLE, BOX_SIDES, Solid
 
 _MERGE_TOL = 1e-9  # m: vertices computed twice by Qhull agree to ~1e-16 m
 _MESH_MIN_EDGE = 0.4  # x zone size: shortest edge the mesher accepts
+_REPAIR_SHRINK = 0.6  # a repaired lattice seed's new displacement, x its previous size
 
 
 @dataclass(frozen=True)
@@ -188,7 +189,7 @@ def tessellate3d(
     rng: np.random.Generator,
     *,
     jitter: float = 0.4,
-    repair_rounds: int = 4,
+    repair_rounds: int = 8,
 ) -> GrainComplex:
     """Fill a solid with convex Voronoi pieces grouped into grains.
 
@@ -210,29 +211,40 @@ def tessellate3d(
     if not 0 < min_edge < max_edge:
         raise GeometryError(f"need 0 < min_edge < max_edge, got {min_edge:g}, {max_edge:g}")
     a = target_edge(min_edge, max_edge)
-    base, movable = _lattice(solid, a)
-    ring, ring_grain_of = _ring(solid, a, rng) if solid.has_borehole else (np.empty((0, 3)), [])
-    if solid.has_borehole and len(base):
+    base, _ = _lattice(solid, a)
+    ring = _Ring.draw(solid, a, rng) if solid.has_borehole else None
+    if ring is not None and len(base):
         r = np.hypot(base[:, 0], base[:, 1])
         base = base[r >= solid.apothem + _ring_clearance(solid, a)]
     n_lat = len(base)
+    n_facets = solid.borehole_facets
     displacement = _displacements(rng, n_lat, jitter * a)
-    cx = None
-    keep = np.arange(n_lat)
+    ring_seeds = ring.seeds() if ring is not None else np.empty((0, 3))
+    ring_piece = np.arange(n_lat + len(ring_seeds)) >= n_lat
+    grain_of_piece = np.arange(n_lat + len(ring_seeds))
+    if ring is not None:
+        grain_of_piece[n_lat:] = n_lat + ring.grain
+    best, best_edge = None, -1.0
     for _ in range(repair_rounds + 1):
-        seeds = _inside_box(solid, base[keep] + displacement[keep], a)
-        ring_piece = np.arange(len(keep) + len(ring)) >= len(keep)
-        grain_of_piece = np.concatenate((np.arange(len(keep)), len(keep) + np.asarray(
-            ring_grain_of, dtype=np.int64)))
-        cx = _complex(solid, np.vstack((seeds, ring)), grain_of_piece, ring_piece)
-        bad = _violations(cx, min_edge, max_edge, zone_size)
-        bad = keep[bad[bad < len(keep)]]
+        seeds = _inside_box(solid, base + displacement, a)
+        if ring is not None:
+            ring_seeds = ring.seeds()
+        cx = _complex(solid, np.vstack((seeds, ring_seeds)), grain_of_piece, ring_piece)
+        bad, shortest = _violations(cx, min_edge, max_edge, zone_size)
+        # A round can make things worse elsewhere: keep the complex whose shortest
+        # edge is longest (it sets the mesh's stable step).
+        if shortest > best_edge:
+            best, best_edge = cx, shortest
         if len(bad) == 0:
             break
+        lat = bad[bad < n_lat]
         # A fresh, smaller displacement: halving alone would converge on the bare
         # lattice, whose edges against the borehole ring can themselves be short.
-        amplitude = 0.6 * np.linalg.norm(displacement[bad], axis=1)
-        displacement[bad] = _displacements(rng, len(bad), 1.0) * amplitude[:, None]
+        amplitude = _REPAIR_SHRINK * np.linalg.norm(displacement[lat], axis=1)
+        displacement[lat] = _displacements(rng, len(lat), 1.0) * amplitude[:, None]
+        if ring is not None and np.any(bad >= n_lat):
+            ring.redraw(np.unique((bad[bad >= n_lat] - n_lat) // n_facets), rng)
+    cx = best
     volume = float(cx.piece_volumes().sum())
     if abs(volume - solid.volume) > 1e-9 * solid.volume:
         raise GeometryError(f"the grains fill {volume:.9g} m3 of a {solid.volume:.9g} m3 solid")
@@ -287,43 +299,77 @@ def _ring_layers(solid: Solid, a: float) -> int:
     return max(1, round(float(solid.extent[2]) / a))
 
 
+# Per-layer jitter of the ring (fractions of the layer spacing and of the
+# offset). Regular layers at the slab's mid-plane and a lattice symmetric about
+# it meet in degenerate vertices (five or more cells), which Qhull resolves into
+# edges of 0.01-0.5 mm; repairs of the lattice seeds alone cannot remove them.
+# A layer keeps one height and one offset for all its facets, so the radial
+# bisectors still pass through the facet edges and the wall stays exact.
+_RING_Z_JITTER = 0.1
+_RING_OFFSET_JITTER = 0.1
+
+
 def _ring_clearance(solid: Solid, a: float) -> float:
     """Lattice seeds stay this far out of the facet planes (m).
 
-    A wall point is at most ``sqrt(t^2 + (dz/2)^2 + (w/2)^2)`` from its ring
-    seed (offset t, layer height dz, facet width w); a lattice seed 30 % farther
-    than that can never claim a piece of the wall, so the wall stays exactly
-    the facets (checked by the volume test).
+    A wall point is at most ``sqrt(t^2 + g^2 + (w/2)^2)`` from its nearest ring
+    seed (offset at most ``t``; a layer height at most ``g = (1/2 + z jitter) dz``
+    away, the z faces mirroring the end layers; facet width ``w``); a lattice
+    seed 30 % farther than that can never claim a piece of the wall, so the wall
+    stays exactly the facets (checked by the volume test). The bound holds for
+    any draw of the layer jitter, so repairs may redraw a layer.
     """
     t = _ring_offset(solid, a)
-    dz = float(solid.extent[2]) / _ring_layers(solid, a)
+    g = (0.5 + _RING_Z_JITTER) * float(solid.extent[2]) / _ring_layers(solid, a)
     w = 2 * solid.borehole_radius * math.sin(math.pi / solid.borehole_facets)
-    return 1.3 * math.sqrt(t * t + 0.25 * dz * dz + 0.25 * w * w)
+    return 1.3 * math.sqrt(t * t + g * g + 0.25 * w * w)
 
 
-def _ring(solid: Solid, a: float, rng: np.random.Generator) -> tuple[np.ndarray, list[int]]:
-    """Ring seeds (facet x layer) and their grain index (counted from 0)."""
-    n = solid.borehole_facets
-    t = _ring_offset(solid, a)
-    height = float(solid.extent[2])
-    layers = _ring_layers(solid, a)
-    phi = (np.arange(n) + 0.5) * 2 * math.pi / n
-    width = 2 * solid.borehole_radius * math.sin(math.pi / n)
-    per_grain = max(1, min(n, round(a / width)))
-    seeds, grain = [], []
-    next_grain = 0
-    r = solid.apothem + t
-    for layer in range(layers):
-        z = solid.lo[2] + (layer + 0.5) * height / layers
-        offset = int(rng.integers(per_grain))
+@dataclass
+class _Ring:
+    """The borehole ring: per layer a height and an offset jitter; grains per sector."""
+
+    solid: Solid
+    a: float
+    z_jitter: np.ndarray  # (layers,) in [-_RING_Z_JITTER, _RING_Z_JITTER]
+    offset_shrink: np.ndarray  # (layers,) in [0, _RING_OFFSET_JITTER]
+    grain: np.ndarray  # (layers x facets,) grain of each ring seed, from 0
+
+    @classmethod
+    def draw(cls, solid: Solid, a: float, rng: np.random.Generator) -> _Ring:
+        n = solid.borehole_facets
+        layers = _ring_layers(solid, a)
+        width = 2 * solid.borehole_radius * math.sin(math.pi / n)
+        per_grain = max(1, min(n, round(a / width)))
         n_groups = max(1, round(n / per_grain))
-        # Sectors k belong to group floor(((k + offset) mod n) * n_groups / n).
-        group = ((np.arange(n) + offset) % n) * n_groups // n
-        for k in range(n):
-            seeds.append((r * math.cos(phi[k]), r * math.sin(phi[k]), z))
-            grain.append(next_grain + int(group[k]))
-        next_grain += n_groups
-    return np.array(seeds), grain
+        grain = []
+        for layer in range(layers):
+            offset = int(rng.integers(per_grain))
+            # Sectors k belong to group floor(((k + offset) mod n) * n_groups / n).
+            grain.append(layer * n_groups + ((np.arange(n) + offset) % n) * n_groups // n)
+        ring = cls(solid, a, np.zeros(layers), np.zeros(layers), np.concatenate(grain))
+        ring.redraw(np.arange(layers), rng)
+        return ring
+
+    @property
+    def n_layers(self) -> int:
+        return len(self.z_jitter)
+
+    def redraw(self, layers: np.ndarray, rng: np.random.Generator) -> None:
+        """New height and offset jitter for the given layers."""
+        self.z_jitter[layers] = rng.uniform(-_RING_Z_JITTER, _RING_Z_JITTER, len(layers))
+        self.offset_shrink[layers] = rng.uniform(0.0, _RING_OFFSET_JITTER, len(layers))
+
+    def seeds(self) -> np.ndarray:
+        """(layers x facets, 3) seeds, layer by layer."""
+        s = self.solid
+        n = s.borehole_facets
+        dz = float(s.extent[2]) / self.n_layers
+        z = s.lo[2] + (np.arange(self.n_layers) + 0.5 + self.z_jitter) * dz
+        r = s.apothem + _ring_offset(s, self.a) * (1.0 - self.offset_shrink)
+        phi = (np.arange(n) + 0.5) * 2 * math.pi / n
+        return np.column_stack((np.outer(r, np.cos(phi)).ravel(),
+                                np.outer(r, np.sin(phi)).ravel(), np.repeat(z, n)))
 
 
 def _mirrors(solid: Solid, seeds: np.ndarray, n_lat: int) -> tuple[np.ndarray, np.ndarray]:
@@ -463,19 +509,19 @@ def _order_polygon(p: np.ndarray, normal: np.ndarray, ids: np.ndarray) -> np.nda
 
 
 def _violations(cx: GrainComplex, min_edge: float, max_edge: float, zone_size: float
-                ) -> np.ndarray:
-    """Pieces around edges that break the short-edge rule."""
+                ) -> tuple[np.ndarray, float]:
+    """Pieces around edges that break the short-edge rule, and the shortest edge (m)."""
     pairs, length, interior = cx.edge_classes()
     bad = (length < _MESH_MIN_EDGE * zone_size)
     bad |= interior & ((length < min_edge) | (length > max_edge))
     if not bad.any():
-        return np.empty(0, dtype=np.int64)
+        return np.empty(0, dtype=np.int64), float(length.min())
     _, owners = cx.edges()
     pieces = set()
     for e in np.flatnonzero(bad):
         for f in owners[e]:
             pieces.update(int(p) for p in cx.face_pieces[f] if p >= 0)
-    return np.array(sorted(pieces), dtype=np.int64)
+    return np.array(sorted(pieces), dtype=np.int64), float(length.min())
 
 
 def short_edge_report(cx: GrainComplex, min_edge: float, max_edge: float, zone_size: float
