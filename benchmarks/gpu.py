@@ -138,18 +138,13 @@ def time_gpu(n: int, steps: int, first: bool) -> dict:
 def time_cpu(n: int, steps: int, threads: int) -> dict:
     """The CPU backend's step rate on ``threads`` numba threads (1: the serial kernels)."""
     block = build(n)
-    solver = MechanicsSolver(block.model, pull_loads(block, PULL))
-    before = numba.get_num_threads()
-    numba.set_num_threads(threads)
-    try:
-        t0 = time.perf_counter()
-        solver.cycle(2)  # compiles (or loads the cache)
-        t_first = time.perf_counter() - t0
-        t0 = time.perf_counter()
-        solver.cycle(steps)
-        t_run = time.perf_counter() - t0
-    finally:
-        numba.set_num_threads(before)
+    solver = MechanicsSolver(block.model, pull_loads(block, PULL), threads=threads)
+    t0 = time.perf_counter()
+    solver.cycle(2)  # compiles (or loads the cache)
+    t_first = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    solver.cycle(steps)
+    t_run = time.perf_counter() - t0
     m = block.model.n_elements
     return {"n": n, "tets": m, "steps": steps, "first_call_s": t_first, "run_s": t_run,
             "rate": m * steps / t_run, "threads": threads}

@@ -22,9 +22,17 @@ commit before a change) the same measurement also runs on that code, in
 subprocesses interleaved with runs of this checkout's code (best of each), and
 the two step rates are printed side by side.
 
+With ``--dim 3`` it times the 3D step instead: synthetic tetrahedral blocks
+cut into bonded slab grains (``grainfrac.physics.cuda.synthetic.grain_block``,
+quartz and Q-Q contact properties of paper Table 2), pulled at a constant speed,
+at ``6 n^3`` tetrahedra for each ``--cubes n``, on 1 and on all numba threads. It
+prints tet-steps/s, the bytes one step moves against the STREAM triad on 1 and on
+all threads, and the exponent of the step time against the model size.
+
 Usage::
 
     python benchmarks/mechanics_step.py --steps 2000 --sizes 1 4
+    python benchmarks/mechanics_step.py --dim 3 --cubes 12 26 40 56
     python benchmarks/mechanics_step.py --compare-src /path/to/old/src
 """
 
@@ -39,8 +47,9 @@ import sys
 import time
 from pathlib import Path
 
+import numba
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from grainfrac.assembly import SpecimenConfig, build_assembly
 from grainfrac.io.config import validate
@@ -132,6 +141,91 @@ def time_steps(model: MechanicalModel, loads: Loads, steps: int, repeats: int) -
     return best
 
 
+@njit(cache=True, parallel=True)
+def _triad_parallel(a, b, c, s):
+    for i in prange(a.shape[0]):
+        a[i] = b[i] + s * c[i]
+
+
+def stream_triad_threads(n: int, repeats: int) -> float:
+    """Best triad bandwidth (GB/s) on all numba threads."""
+    b = np.random.default_rng(0).random(n)
+    c = np.random.default_rng(1).random(n)
+    a = np.empty(n)
+    _triad_parallel(a[:10], b[:10], c[:10], 3.0)
+    best = math.inf
+    for _ in range(repeats):
+        start = time.perf_counter()
+        _triad_parallel(a, b, c, 3.0)
+        best = min(best, time.perf_counter() - start)
+    return 24.0 * n / best / 1e9
+
+
+def tet_bytes_per_step(model: MechanicalModel) -> int:
+    """Bytes one 3D serial step reads and writes, counted as in :func:`bytes_per_step`.
+
+    Per tetrahedron: cells 4 int64, grad 12, measure, lam, mu (read); u gathered at
+    4 nodes x 3; force scattered (read + write) at 4 x 3; stress 6 (write). Per
+    sub-contact: nodes 2 int64, frame 9, area, kn, ks, tan_phi, cohesion, strength,
+    two softening lengths, pressure, offset (read), bonded, tau 2 (read + write),
+    sigma_n, damage, plastic opening (write); u and v at 2 nodes x 3; force 2 x 3
+    (read + write). Per node: u, v (read + write), force, external, prescribed
+    velocity (read), mass, fixed; zeroing the force.
+    """
+    m, c, n = model.n_elements, model.n_contacts, model.n_nodes
+    element = m * (4 * I8 + 12 * F8 + 3 * F8 + 12 * F8 + 2 * 12 * F8 + 6 * F8)
+    contact = c * (2 * I8 + 9 * F8 + 10 * F8 + B1 + 2 * 2 * F8 + 3 * F8 + 12 * F8
+                   + 2 * 6 * F8)
+    node = n * (2 * 2 * 3 * F8 + 3 * 3 * F8 + F8 + 3 * B1 + 3 * F8)
+    return element + contact + node
+
+
+def main_3d(args) -> int:
+    """The 3D benchmark (``--dim 3``)."""
+    from grainfrac.physics.cuda.synthetic import grain_block, pull_loads
+
+    threads_all = numba.config.NUMBA_NUM_THREADS
+    stream_1 = stream_triad(args.stream_n, repeats=5)
+    stream_all = stream_triad_threads(args.stream_n, repeats=5)
+    print(f"STREAM triad: 1 thread {stream_1:.2f} GB/s, {threads_all} threads "
+          f"{stream_all:.2f} GB/s (n = {args.stream_n:.1e})")
+    print(f"{'tets':>10}{'contacts':>10}{'threads':>8}{'tet-steps/s':>13}{'ms/step':>9}"
+          f"{'GB/s':>7}{'/STREAM':>9}")
+    times: dict[int, list[tuple[int, float]]] = {1: [], threads_all: []}
+    for n in args.cubes:
+        block = grain_block(n, size=n * 1e-3, cuts=max(2, n // 4), softening=True)
+        model = block.model
+        traffic = tet_bytes_per_step(model)
+        for threads in sorted({1, threads_all}):
+            solver = MechanicsSolver(model, pull_loads(block, (1e-3, 0.0, 0.0)),
+                                     threads=threads)
+            solver.cycle(2)  # compile or load the cache
+            steps = max(20, int(2e7 / model.n_elements))
+            best = math.inf
+            for _ in range(args.repeats):
+                start = time.perf_counter()
+                solver.cycle(steps)
+                best = min(best, (time.perf_counter() - start) / steps)
+            stream = stream_1 if threads == 1 else stream_all
+            bandwidth = traffic / best / 1e9
+            times[threads].append((model.n_elements, best))
+            print(f"{model.n_elements:>10}{model.n_contacts:>10}{threads:>8}"
+                  f"{model.n_elements / best:>13.3e}{best * 1e3:>9.3f}{bandwidth:>7.1f}"
+                  f"{bandwidth / stream:>8.0%}")
+    for threads, rows in times.items():
+        if len(rows) >= 2:
+            size, seconds = np.log([r[0] for r in rows]), np.log([r[1] for r in rows])
+            exponent = np.polyfit(size, seconds, 1)[0]
+            print(f"step time ~ size^{exponent:.2f} on {threads} thread(s)")
+    if threads_all > 1:
+        speedup = [t1 / ta for (_, t1), (_, ta) in zip(times[1], times[threads_all],
+                                                       strict=True)]
+        print("speed-up of all threads over 1: "
+              + ", ".join(f"{m:.1e} tets {x:.2f} x" for (m, _), x in zip(times[1], speedup,
+                                                                           strict=True)))
+    return 0
+
+
 def step_rates(sizes: list[float], steps: int, repeats: int, seed: int) -> list[float]:
     """Steps per second of the default-slab benchmark at each size (case-2 loads)."""
     sx, sy, _ = STRESS_CASES["case2"]
@@ -179,9 +273,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--compare-src", type=Path, default=None,
                         help="also time the code under this src folder (e.g. an old checkout)")
     parser.add_argument("--rates-only", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--dim", type=int, choices=(2, 3), default=2,
+                        help="2: the default slab's step; 3: synthetic tetrahedral blocks")
+    parser.add_argument("--cubes", type=int, nargs="+", default=[12, 26, 40, 56],
+                        help="3D block sizes: 6 n^3 tetrahedra each")
     args = parser.parse_args(argv)
     if args.steps < 1 or args.repeats < 1 or any(s <= 0 for s in args.sizes):
         parser.error("--steps, --repeats and --sizes must be positive")
+    if args.dim == 3:
+        return main_3d(args)
     if args.rates_only:
         print(json.dumps(step_rates(args.sizes, args.steps, args.repeats, args.seed)))
         return 0

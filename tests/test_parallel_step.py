@@ -34,16 +34,11 @@ def _pull(threads: int) -> MechanicsSolver:
     loads.fixed[top, 1] = loads.fixed[bottom, 1] = True
     loads.prescribed_velocity[top, 1] = PULL_SPEED
     loads.prescribed_velocity[bottom, 1] = -PULL_SPEED
-    solver = MechanicsSolver(model, loads)
-    before = numba.get_num_threads()
-    numba.set_num_threads(threads)
-    try:
-        for _ in range(40):
-            solver.cycle(200)
-            if len(solver.cracks.contact) > 20:
-                break
-    finally:
-        numba.set_num_threads(before)
+    solver = MechanicsSolver(model, loads, threads=threads)
+    for _ in range(40):
+        solver.cycle(200)
+        if len(solver.cracks.contact) > 20:
+            break
     return solver
 
 
