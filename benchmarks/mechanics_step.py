@@ -272,6 +272,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--compare-src", type=Path, default=None,
                         help="also time the code under this src folder (e.g. an old checkout)")
+    parser.add_argument("--rounds", type=int, default=5,
+                        help="interleaved subprocess pairs of --compare-src (best of each)")
     parser.add_argument("--rates-only", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--dim", type=int, choices=(2, 3), default=2,
                         help="2: the default slab's step; 3: synthetic tetrahedral blocks")
@@ -331,7 +333,8 @@ def main(argv: list[str] | None = None) -> int:
     print(f"target >= {TARGET:.0%} of STREAM: {'met' if ok else 'NOT met'} "
           f"({', '.join(f'{bw / stream:.0%}' for *_, bw, _, _ in rows)})")
     if args.compare_src is not None:
-        compare(args.compare_src, args.sizes, args.steps, args.repeats, args.seed)
+        compare(args.compare_src, args.sizes, args.steps, args.repeats, args.seed,
+                rounds=args.rounds)
     return 0
 
 
