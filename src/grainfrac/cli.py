@@ -129,7 +129,7 @@ def _print_specimen_summary(summary: dict, out: Path) -> None:
 
 @app.command()
 def verify(
-    name: Annotated[str, typer.Argument(help="Verification case (kirsch, lame, ...).")],
+    name: Annotated[str, typer.Argument(help="Verification case (kirsch, lame, lame3d, ...).")],
     json_rows: Annotated[bool, typer.Option(
         "--json", help="One JSON object per compared quantity instead of a table.")] = False,
     seed: Annotated[int, typer.Option(help="Seed of the grain structure.")] = 0,

@@ -4,14 +4,14 @@ Every case is a function ``case(seed=0) -> list[Comparison]`` registered in
 :data:`CASES` under its command-line name; it builds, runs and measures its own
 model, prints nothing and raises only on a failure to run (a miss of a
 tolerance is a failed :class:`Comparison`, not an exception). Future cases
-(``cubic-law``, ``kgd``, ``penny``) plug in by adding an entry.
+(``cubic-law3d``, ``penny``) plug in by adding an entry.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 
-from grainfrac.verification import elastic, hydraulic, kgd
+from grainfrac.verification import elastic, elastic3d, hydraulic, kgd
 from grainfrac.verification.report import (
     ROW_KEYS,
     Comparison,
@@ -26,6 +26,9 @@ CASES: dict[str, Callable[..., list[Comparison]]] = {
     "lame": elastic.lame,
     "cubic-law": hydraulic.cubic_law,
     "kgd": kgd.kgd,
+    "patch3d": elastic3d.patch3d,
+    "lame3d": elastic3d.lame3d,
+    "kirsch3d": elastic3d.kirsch3d,
 }
 
 __all__ = ["CASES", "ROW_KEYS", "Comparison", "all_passed", "comparison_table",
