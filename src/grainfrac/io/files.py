@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import tempfile
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -32,6 +33,22 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     finally:
         if tmp_path.exists():
             tmp_path.unlink()
+
+
+# Characters a file name made from user text may keep: no separators, no ".." path parts.
+_UNSAFE = re.compile(r"[^A-Za-z0-9._-]+")
+
+
+def safe_filename(name: str, fallback: str = "output") -> str:
+    """``name`` made into one plain file name that stays in the directory it is put in.
+
+    Runs of other characters than letters, digits, ``.``, ``_`` and ``-`` (path
+    separators included) become ``-``; leading dots and dashes go (no hidden
+    files, no ``..``, nothing read as an option). A name with nothing left
+    becomes ``fallback``. ``"../../x"`` -> ``"x"``, ``"/etc/passwd"`` -> ``"etc-passwd"``.
+    """
+    cleaned = _UNSAFE.sub("-", name).lstrip(".-").rstrip("-")
+    return cleaned[:200] or fallback
 
 
 def write_atomic(path: str | Path, writer: Callable[[Path], Any]) -> Path:
