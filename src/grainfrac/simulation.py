@@ -20,7 +20,7 @@ from grainfrac.io.files import write_json
 from grainfrac.io.results import write_cracks, write_history
 from grainfrac.materials import RockRecipe
 from grainfrac.physics.cracks import crack_catalogue
-from grainfrac.run import Progress, Run
+from grainfrac.run import Progress, Run, run_directory
 from grainfrac.scenario import Scenario, write_resolved
 from grainfrac.viz.fields import (
     plot_contact_pressure,
@@ -90,7 +90,11 @@ def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
                                       a.pair_names)
     out["contact_fraction_total"] = total
     out["contact_fraction_failed"] = failed
-    out["in_situ_unbalanced_force_ratio"] = run.stage("equilibrate").state.unbalanced_force_ratio
+    equilibrate = run.stage("equilibrate")
+    out["in_situ_unbalanced_force_ratio"] = equilibrate.state.unbalanced_force_ratio
+    unsettled = equilibrate.unsettled_warning()
+    if unsettled:
+        out["warnings"].append(unsettled)
     stage = run.stage("drill_out")
     if stage is not None:
         drill_out = stage.spec
@@ -142,30 +146,36 @@ def _plot_final_fields(run: Run, figures: Path) -> None:
 
 
 def run_scenario(scenario: Scenario, recipe: RockRecipe, out: str | Path, *,
-                 base_dir: Path | None = None, resume: bool = False,
+                 base_dir: Path | None = None, resume: bool = False, overwrite: bool = False,
                  progress: Callable[[Progress], None] | None = None) -> dict[str, Any]:
     """Run (or resume) a scenario into ``out``; return the summary.
 
-    Writes config.toml (resolved), history.csv, cracks.csv, snapshots/,
-    figures/, summary.json and checkpoint/state.h5. Raises
-    :class:`~grainfrac.run.RunFailed` on a numerical blow-up (the history, crack
-    catalogue and last good checkpoint stay).
+    Writes fingerprint.json, config.toml (resolved), history.csv, cracks.csv,
+    snapshots/, figures/, summary.json and checkpoint/state.h5, holding
+    ``out/run.lock`` meanwhile (:func:`grainfrac.run.run_directory`: a new run
+    needs an empty ``out`` or ``overwrite``; a resumed one, ``out`` of the same
+    scenario, seed and version). Raises :class:`~grainfrac.run.RunDirectoryError`
+    for a directory it cannot use and :class:`~grainfrac.run.RunFailed` on a
+    numerical blow-up (the history, crack catalogue and last good checkpoint stay).
     """
     out = Path(out)
-    run = Run(scenario, recipe, out, base_dir=base_dir, progress=progress)
-    if resume:
-        run.restore()
-    else:
-        write_resolved(out / "config.toml", scenario, recipe)
-    try:
-        run.execute()
-    finally:
-        write_history(out / "history.csv", run.record.history)
-        cat = _rock_crack_catalogue(run)
-        write_cracks(out / "cracks.csv", cat.rows(run.assembly.pair_names))
-    summary = summarise(run, run.wall_time())
-    _plot_run(run, cat, out / "figures")
-    write_json(out / "summary.json", summary)
+    with run_directory(out, scenario, recipe, base_dir=base_dir, resume=resume,
+                       overwrite=overwrite) as print_:
+        if not resume:
+            write_resolved(out / "config.toml", scenario, recipe, base_dir)
+        run = Run(scenario, recipe, out, base_dir=base_dir, progress=progress,
+                  fingerprint=print_)
+        if resume:
+            run.restore()
+        try:
+            run.execute()
+        finally:
+            write_history(out / "history.csv", run.record.history)
+            cat = _rock_crack_catalogue(run)
+            write_cracks(out / "cracks.csv", cat.rows(run.assembly.pair_names))
+        summary = summarise(run, run.wall_time())
+        _plot_run(run, cat, out / "figures")
+        write_json(out / "summary.json", summary)
     return summary
 
 

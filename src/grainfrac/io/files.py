@@ -80,3 +80,35 @@ def write_csv(path: str | Path, rows: list[dict[str, Any]], columns: list[str]) 
     writer.writeheader()
     writer.writerows(rows)
     return write_text(path, buffer.getvalue())
+
+
+class DirectoryBusy(OSError):
+    """Another process holds the lock of a directory."""
+
+
+@contextmanager
+def directory_lock(directory: str | Path, name: str = "run.lock") -> Iterator[Path]:
+    """Hold an exclusive ``flock`` on ``directory/name`` (created, with the directory).
+
+    The lock belongs to the open file, so the kernel drops it when the process
+    dies, even by ``kill -9``: a stale lock file never blocks a later run. Raises
+    :class:`DirectoryBusy` at once (no waiting) if another process holds it, and
+    the ``OSError`` of ``mkdir``/``open`` if the directory cannot be made.
+    """
+    import fcntl
+
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    path = directory / name
+    fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666 & ~_UMASK)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise DirectoryBusy(f"{directory} is in use by another process "
+                                f"(it holds {path})") from None
+        os.ftruncate(fd, 0)
+        os.write(fd, f"{os.getpid()}\n".encode())  # who holds it, for a person to read
+        yield path
+    finally:
+        os.close(fd)  # closing drops the lock
