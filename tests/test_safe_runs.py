@@ -296,3 +296,77 @@ def test_an_unsettled_equilibrate_stage_warns_in_the_summary_and_the_log(finishe
         sc = _scenario(stages=[{"kind": "equilibrate", "max_steps": 50}])
         run_scenario(sc, sc.recipe(), out.parent / "fifty")
     assert any("max_steps = 50" in r.getMessage() for r in caplog.records)
+
+
+# --------------------------------------------------------------------------- observability
+
+
+def test_every_run_directory_has_a_log(finished):
+    out, summary = finished
+    text = (out / "run.log").read_text()
+    assert "starting run 'tiny', seed 1" in text
+    assert "stage 1/1 equilibrate done" in text and "done in" in text
+    # The unsettled equilibrium is in the log as well as in summary.json.
+    assert "WARNING equilibrate: the in-situ stress had not settled" in text
+
+
+def test_progress_lines_name_stage_time_cracks_pressure_and_eta(tmp_path):
+    sc = _scenario(stages=[{"kind": "equilibrate", "max_steps": 400},
+                           {"kind": "inject", "rate_ml_per_min": 90.0, "duration_ms": 0.03,
+                            "time_step_ms": 0.01}])
+    run_scenario(sc, sc.recipe(), tmp_path / "run", log_every_s=0.0)
+    lines = [ln for ln in (tmp_path / "run" / "run.log").read_text().splitlines()
+             if "stage 2/2 inject:" in ln]
+    assert len(lines) == 3, lines
+    for word in ("t = ", "% of the stage", "cracks", "well ", "MPa", "ETA of the stage"):
+        assert word in lines[0], lines[0]
+
+
+def test_sigint_mid_injection_checkpoints_and_resume_gives_the_uninterrupted_result(tmp_path):
+    """``grainfrac run`` off a terminal: progress lines on stderr while it runs; SIGINT
+    in the injection stops it with a checkpoint and the resume command; the resumed
+    run's summary and cracks are those of an uninterrupted run."""
+    import os
+    import signal
+    import time
+
+    stages = [{"kind": "equilibrate", "max_steps": 400},
+              {"kind": "inject", "rate_ml_per_min": 90.0, "duration_ms": 1.0,
+               "time_step_ms": 0.01}]
+    path = _file(tmp_path, stages=stages)
+    out = tmp_path / "interrupted"
+    env = {**os.environ, "GRAINFRAC_LOG_EVERY_S": "0.001"}
+    proc = subprocess.Popen([sys.executable, "-m", "grainfrac.cli", "run", str(path), "--out",
+                             str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, env=env)
+    seen: list[str] = []
+    try:
+        deadline = time.monotonic() + 600
+        while time.monotonic() < deadline:
+            line = proc.stderr.readline()
+            if not line:
+                break
+            seen.append(line)
+            if "stage 2/2 inject:" in line and "t = " in line and len(
+                    [s for s in seen if "inject:" in s]) >= 5:
+                proc.send_signal(signal.SIGINT)
+                break
+        rest_out, rest_err = proc.communicate(timeout=600)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    stderr = "".join(seen) + rest_err
+    assert proc.returncode == 130, stderr + rest_out
+    assert "Traceback" not in stderr
+    assert f"grainfrac run --resume --out {out}" in stderr
+    assert checkpoint_path(out).is_file() and not (out / "summary.json").exists()
+
+    sc = _scenario(stages=stages)
+    resumed = run_scenario(sc, sc.recipe(), out, resume=True)
+    reference = run_scenario(sc, sc.recipe(), tmp_path / "reference")
+    strip = ("wall_time_s",)
+    assert {k: v for k, v in resumed.items() if k not in strip} == \
+        {k: v for k, v in reference.items() if k not in strip}
+    assert (out / "cracks.csv").read_text() == (tmp_path / "reference" / "cracks.csv").read_text()
+    log = (out / "run.log").read_text()
+    assert "interrupted by SIGINT in stage 2 (inject)" in log and "resuming run" in log

@@ -8,6 +8,7 @@ from typing import Annotated
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
 import grainfrac
@@ -30,8 +31,8 @@ def _fail(exc: Exception) -> None:
         text = f"{exc.strerror}{where}"
     else:
         text = str(exc)
-    err_console.print(f"[bold red]error:[/] {text}", highlight=False, soft_wrap=True,
-                      markup=True)
+    # The text may hold user input ("[/]" in a key): never read as markup.
+    err_console.print(f"[bold red]error:[/] {escape(text)}", highlight=False, soft_wrap=True)
     raise typer.Exit(code=2)
 
 
@@ -193,9 +194,15 @@ def run(
     if resume and overwrite:
         _fail(ValueError("--resume continues the run in --out, --overwrite clears it: "
                          "give one of them"))
+    from grainfrac.run import RunInterrupted
+
     try:
         summary = run_with_progress(scenario, out, seed=seed, resume=resume,
                                     overwrite=overwrite, console=console)
+    except RunInterrupted as exc:
+        err_console.print(f"[bold yellow]stopped:[/] {escape(str(exc))}", highlight=False,
+                          soft_wrap=True)
+        raise typer.Exit(code=130) from None  # the shell's code for an interrupted command
     except (GrainfracError, OSError) as exc:
         _fail(exc)
     _print_run_summary({out.name: summary})

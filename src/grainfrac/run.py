@@ -14,7 +14,10 @@ from __future__ import annotations
 
 import hashlib
 import json
+import logging
 import shutil
+import signal
+import threading
 import time as wallclock
 from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
@@ -54,6 +57,10 @@ def checkpoint_path(out: str | Path) -> Path:
 
 class RunFailed(GrainfracError):
     """A run stopped on a numerical problem; the last good state is checkpointed."""
+
+
+class RunInterrupted(GrainfracError):
+    """A run stopped on SIGINT or SIGTERM after writing a checkpoint to resume from."""
 
 
 class RunDirectoryError(GrainfracError):
@@ -253,6 +260,58 @@ def _arrays(obj: Any) -> dict[str, np.ndarray]:
     return {f.name: np.asarray(getattr(obj, f.name)) for f in fields(obj)}
 
 
+log = logging.getLogger(__name__)
+# Seconds between two progress lines in run.log (and on stderr off a terminal).
+LOG_EVERY_S = 30.0
+LOG_FILE = "run.log"
+
+
+@contextmanager
+def run_log(out: Path) -> Iterator[Path]:
+    """Send grainfrac's log records (INFO and up) to ``out/run.log`` (appended: a
+    resumed run continues its log) while the block runs."""
+    path = Path(out) / LOG_FILE
+    handler = logging.FileHandler(path, encoding="utf-8")
+    handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(message)s"))
+    handler.setLevel(logging.INFO)
+    logger = logging.getLogger("grainfrac")
+    level = logger.level
+    if logger.getEffectiveLevel() > logging.INFO:
+        logger.setLevel(logging.INFO)
+    logger.addHandler(handler)
+    try:
+        yield path
+    finally:
+        logger.removeHandler(handler)
+        handler.close()
+        logger.setLevel(level)
+
+
+@contextmanager
+def stop_on_signals(request_stop: Callable[[str], None]) -> Iterator[None]:
+    """While the block runs, SIGINT and SIGTERM call ``request_stop(name)`` instead of
+    killing the process (a second one does: the user insists). Only in the main
+    thread, where Python delivers signals; elsewhere (a Dask worker's thread) the
+    block runs with the handlers as they are."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous: dict[int, Any] = {}
+
+    def handler(signum: int, frame: Any) -> None:
+        for sig, old in previous.items():
+            signal.signal(sig, old)  # the next one is not caught
+        request_stop(signal.Signals(signum).name)
+
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        previous[sig] = signal.signal(sig, handler)
+    try:
+        yield
+    finally:
+        for sig, old in previous.items():
+            signal.signal(sig, old)
+
+
 class Run(Hooks):
     """A scenario being run into a directory."""
 
@@ -277,6 +336,15 @@ class Run(Hooks):
         self._centroids = mesh.node_xy[mesh.element_nodes].mean(axis=1)
         self._last_checkpoint = wallclock.monotonic()
         self._started = wallclock.monotonic()
+        self.log_every_s = LOG_EVERY_S
+        self._last_log = wallclock.monotonic()
+        self._stage_wall_start = wallclock.monotonic()
+        self._stop: str | None = None
+
+    def request_stop(self, reason: str) -> None:
+        """Stop at the end of the chunk in progress, with a checkpoint (a signal handler
+        calls this: it only sets a flag, the loop does the rest)."""
+        self._stop = reason
 
     @property
     def solver(self) -> MechanicsSolver:
@@ -310,17 +378,57 @@ class Run(Hooks):
         self._record(stage)
         if stage.periodic_snapshots:
             self._maybe_snapshot()
+        if wallclock.monotonic() - self._last_log >= self.log_every_s:
+            self._log_progress(stage)
 
     def after_stage(self, stage: Stage) -> None:
         self.record.stage_times.setdefault(stage.kind, [stage.state.start_time,
                                                         self.solver.time])
         self._maybe_snapshot(force=True)
         self.checkpoint()
+        i = self.stages.index(stage)
+        log.info("stage %d/%d %s done at t = %.4f ms (stage %.4f ms, %.0f s wall), "
+                 "%d cracks", i + 1, len(self.stages), stage.kind, self.solver.time * 1e3,
+                 (self.solver.time - stage.state.start_time) * 1e3,
+                 wallclock.monotonic() - self._stage_wall_start,
+                 int(self.world.rock_cracks().sum()))
+        self._stage_wall_start = wallclock.monotonic()
+        self._stop_if_asked()
 
     def between_chunks(self) -> None:
         every = self.scenario.output.checkpoint_every_minutes * 60.0
-        if wallclock.monotonic() - self._last_checkpoint >= every:
+        if self._stop is None and wallclock.monotonic() - self._last_checkpoint >= every:
             self.checkpoint()
+        if self._stop is not None:
+            self.checkpoint()
+        self._stop_if_asked()
+
+    def _stop_if_asked(self) -> None:
+        # Called where the last checkpoint is the state now: a resume retraces the
+        # uninterrupted run from here.
+        if self._stop is None:
+            return
+        i = min(self.driver.state.stage_index, len(self.stages) - 1)
+        message = (f"interrupted by {self._stop} in stage {i + 1} ({self.stages[i].kind}) at "
+                   f"t = {self.solver.time * 1e3:.4f} ms; checkpoint written to "
+                   f"{self.checkpoint_path}. Continue with: grainfrac run --resume --out "
+                   f"{self.out}")
+        log.warning(message)
+        raise RunInterrupted(message)
+
+    def _log_progress(self, stage: Stage) -> None:
+        """One line: stage, simulated time, how far, cracks, pressures, ETA of the stage."""
+        self._last_log = now = wallclock.monotonic()
+        i = self.stages.index(stage)
+        fraction = stage.fraction()
+        spent = now - self._stage_wall_start
+        eta = f"{spent * (1 - fraction) / fraction:.0f} s" if 0 < fraction < 1 else "-"
+        w = self.world
+        log.info("stage %d/%d %s: t = %.4f ms, %.1f %% of the stage, %d cracks, well "
+                 "%.3f MPa, SCDA %.2f MPa, step %d, ETA of the stage %s", i + 1,
+                 len(self.stages), stage.kind, self.solver.time * 1e3, 100 * fraction,
+                 int(w.rock_cracks().sum()), w.well_pressure() / 1e6,
+                 w.expansive_pressure() / 1e6, self.solver.step_count, eta)
 
     def at_end(self) -> None:
         self.checkpoint()

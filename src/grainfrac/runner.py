@@ -69,6 +69,19 @@ def run_with_progress(scenario_path: Path | None, out: Path, *, seed: int | None
         base_dir = scenario_path.parent
     if seed is not None:
         scenario = scenario.with_seed(seed)
+    # Off a terminal (nohup, a batch job) the bar shows nothing until the end: the
+    # run log's lines go to stderr as well. GRAINFRAC_LOG_EVERY_S sets their interval.
+    import logging
+    import os
+    import sys
+
+    every = float(os.environ.get("GRAINFRAC_LOG_EVERY_S", "0") or 0) or None
+    stream = None
+    if not sys.stderr.isatty():
+        stream = logging.StreamHandler(sys.stderr)
+        stream.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(message)s"))
+        stream.setLevel(logging.INFO)
+        logging.getLogger("grainfrac").addHandler(stream)
     # The bar starts with the first chunk, so that a refused run directory or a
     # bad input is one line on its own.
     bar = Progress(*_columns(), console=console, transient=False)
@@ -82,9 +95,11 @@ def run_with_progress(scenario_path: Path | None, out: Path, *, seed: int | None
 
     try:
         return run_scenario(scenario, recipe, out, base_dir=base_dir, resume=resume,
-                            overwrite=overwrite, progress=show)
+                            overwrite=overwrite, progress=show, log_every_s=every)
     finally:
         bar.stop()
+        if stream is not None:
+            logging.getLogger("grainfrac").removeHandler(stream)
 
 
 def _demo_worker(name: str, scenario_dict: dict, out: str, events,

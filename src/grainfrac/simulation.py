@@ -8,6 +8,7 @@ turns a finished (or stopped) run into ``cracks.csv``, ``summary.json`` and
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -20,7 +21,7 @@ from grainfrac.io.files import write_json
 from grainfrac.io.results import write_cracks, write_history
 from grainfrac.materials import RockRecipe
 from grainfrac.physics.cracks import crack_catalogue
-from grainfrac.run import Progress, Run, run_directory
+from grainfrac.run import Progress, Run, run_directory, run_log, stop_on_signals
 from grainfrac.scenario import Scenario, write_resolved
 from grainfrac.viz.fields import (
     plot_contact_pressure,
@@ -29,6 +30,8 @@ from grainfrac.viz.fields import (
 )
 from grainfrac.viz.fractures import plot_fracture_pattern
 from grainfrac.viz.pressure import plot_stage_history, plot_well_pressure
+
+log = logging.getLogger(__name__)
 
 
 def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
@@ -147,28 +150,43 @@ def _plot_final_fields(run: Run, figures: Path) -> None:
 
 def run_scenario(scenario: Scenario, recipe: RockRecipe, out: str | Path, *,
                  base_dir: Path | None = None, resume: bool = False, overwrite: bool = False,
-                 progress: Callable[[Progress], None] | None = None) -> dict[str, Any]:
+                 progress: Callable[[Progress], None] | None = None,
+                 log_every_s: float | None = None) -> dict[str, Any]:
     """Run (or resume) a scenario into ``out``; return the summary.
 
-    Writes fingerprint.json, config.toml (resolved), history.csv, cracks.csv,
-    snapshots/, figures/, summary.json and checkpoint/state.h5, holding
+    Writes fingerprint.json, config.toml (resolved), run.log (a progress line
+    every ``log_every_s``, default :data:`grainfrac.run.LOG_EVERY_S`),
+    history.csv, cracks.csv, snapshots/, figures/, summary.json and
+    checkpoint/state.h5, holding
     ``out/run.lock`` meanwhile (:func:`grainfrac.run.run_directory`: a new run
     needs an empty ``out`` or ``overwrite``; a resumed one, ``out`` of the same
     scenario, seed and version). Raises :class:`~grainfrac.run.RunDirectoryError`
     for a directory it cannot use and :class:`~grainfrac.run.RunFailed` on a
     numerical blow-up (the history, crack catalogue and last good checkpoint stay).
+    SIGINT or SIGTERM (in the main thread) stop it at the end of the chunk in
+    progress with a checkpoint: :class:`~grainfrac.run.RunInterrupted` says how to
+    resume.
     """
     out = Path(out)
     with run_directory(out, scenario, recipe, base_dir=base_dir, resume=resume,
-                       overwrite=overwrite) as print_:
+                       overwrite=overwrite) as print_, run_log(out):
+        log.info("%s run %r, seed %d, into %s (grainfrac %s, scenario sha256 %s)",
+                 "resuming" if resume else "starting", scenario.name, scenario.seed, out,
+                 print_["grainfrac_version"], print_["scenario_sha256"][:12])
         if not resume:
             write_resolved(out / "config.toml", scenario, recipe, base_dir)
         run = Run(scenario, recipe, out, base_dir=base_dir, progress=progress,
                   fingerprint=print_)
+        if log_every_s is not None:
+            run.log_every_s = log_every_s
+        log.info("%d grains, %d elements, %d contacts; stages: %s", run.assembly.n_grains,
+                 run.assembly.mesh.n_elements, run.assembly.mesh.n_contacts,
+                 ", ".join(scenario.stage_kinds))
         if resume:
             run.restore()
         try:
-            run.execute()
+            with stop_on_signals(run.request_stop):
+                run.execute()
         finally:
             write_history(out / "history.csv", run.record.history)
             cat = _rock_crack_catalogue(run)
@@ -176,6 +194,12 @@ def run_scenario(scenario: Scenario, recipe: RockRecipe, out: str | Path, *,
         summary = summarise(run, run.wall_time())
         _plot_run(run, cat, out / "figures")
         write_json(out / "summary.json", summary)
+        for warning in summary["warnings"]:
+            log.warning("summary: %s", warning)
+        log.info("done in %.1f s: %d cracks, breakdown pressure %s MPa; wrote %s",
+                 summary["wall_time_s"], summary["n_cracks"],
+                 "-" if summary["breakdown_pressure_MPa"] is None
+                 else f"{summary['breakdown_pressure_MPa']:.3f}", out / "summary.json")
     return summary
 
 
