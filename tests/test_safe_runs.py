@@ -370,3 +370,30 @@ def test_sigint_mid_injection_checkpoints_and_resume_gives_the_uninterrupted_res
     assert (out / "cracks.csv").read_text() == (tmp_path / "reference" / "cracks.csv").read_text()
     log = (out / "run.log").read_text()
     assert "interrupted by SIGINT in stage 2 (inject)" in log and "resuming run" in log
+
+
+# --------------------------------------------------------------------------- legend
+
+
+def test_legend_names_every_code_in_the_files_and_the_sign_conventions(finished):
+    import meshio
+    import numpy as np
+
+    out, _ = finished
+    legend = json.loads((out / "legend.json").read_text())
+    grains = meshio.read(sorted((out / "snapshots").glob("grains_*.vtu"))[-1])
+    contacts = meshio.read(sorted((out / "snapshots").glob("contacts_*.vtu"))[-1])
+    in_files = {"mineral": grains.cell_data.get("mineral"),
+                "mode": contacts.cell_data.get("mode"),
+                "failed": contacts.cell_data.get("failed")}
+    for name, data in in_files.items():
+        assert data is not None, name
+        codes = {str(int(v)) for v in np.unique(np.concatenate(data))}
+        assert codes <= set(legend["codes"][name]), (name, codes)
+    assert legend["codes"]["mineral"] == {"0": "mica", "1": "feldspar", "2": "quartz"}
+    assert legend["codes"]["contact_type"]["5"] == "Q-Q"
+    assert legend["codes"]["mode"] == {"0": "intact", "1": "tensile", "2": "shear"}
+    signs = legend["sign_conventions"]
+    assert signs["grain stress (stress_Pa)"] == "tension positive"
+    assert signs["contact normal stress (normal_stress_Pa)"] == "compression positive"
+    assert signs["contact opening (opening_m)"] == "opening positive"

@@ -20,7 +20,7 @@ from grainfrac.analysis import breakdown_summary, contact_fractions, fracture_su
 from grainfrac.io.files import write_json
 from grainfrac.io.results import write_cracks, write_history
 from grainfrac.materials import RockRecipe
-from grainfrac.physics.cracks import crack_catalogue
+from grainfrac.physics.cracks import MODE_NAMES, crack_catalogue
 from grainfrac.run import Progress, Run, run_directory, run_log, stop_on_signals
 from grainfrac.scenario import Scenario, write_resolved
 from grainfrac.viz.fields import (
@@ -32,6 +32,39 @@ from grainfrac.viz.fractures import plot_fracture_pattern
 from grainfrac.viz.pressure import plot_stage_history, plot_well_pressure
 
 log = logging.getLogger(__name__)
+
+
+def legend(run: Run) -> dict[str, Any]:
+    """``legend.json``: the names of the integer codes in the run's files and the sign
+    conventions of its quantities."""
+    a = run.assembly
+    return {
+        "codes": {
+            "mineral": {str(i): name for i, name in enumerate(a.mineral_table.names)},
+            "contact_type": {str(i): name for i, name in enumerate(a.pair_names)},
+            "mode": {"0": "intact", **{str(k): v for k, v in MODE_NAMES.items()}},
+            "failed": {"0": "intact", "1": "broken (tensile or shear)"},
+            "fissure": {"0": "bonded grain boundary", "1": "pre-existing fissure"},
+        },
+        "where": {
+            "mineral": "grains*.vtu, grains.vtu (cell data)",
+            "contact_type": "contacts.vtu (cell data); cracks.csv and history by name",
+            "mode": "contacts*.vtu (cell data); cracks.csv by name",
+            "failed": "contacts*.vtu (cell data)",
+            "fissure": "contacts.vtu (cell data)",
+        },
+        "sign_conventions": {
+            "grain stress (stress_Pa)": "tension positive",
+            "contact normal stress (normal_stress_Pa)": "compression positive",
+            "contact opening (opening_m)": "opening positive",
+            "in-situ stresses (config.toml stress)": "compressive magnitudes, positive",
+            "tangential_stress_near_well_MPa (history.csv)": "compression positive",
+            "fluid pressure": "positive",
+        },
+        "units": "SI in files (m, Pa, s, J) unless the name says otherwise (_MPa, _mm, _ml)",
+        "times": "absolute simulated time (s) from the start of the run, except "
+                 "breakdown_time_s, which counts from the start of injection",
+    }
 
 
 def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
@@ -179,6 +212,7 @@ def run_scenario(scenario: Scenario, recipe: RockRecipe, out: str | Path, *,
                   fingerprint=print_)
         if log_every_s is not None:
             run.log_every_s = log_every_s
+        write_json(out / "legend.json", legend(run))
         log.info("%d grains, %d elements, %d contacts; stages: %s", run.assembly.n_grains,
                  run.assembly.mesh.n_elements, run.assembly.mesh.n_contacts,
                  ", ".join(scenario.stage_kinds))
