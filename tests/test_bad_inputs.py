@@ -273,3 +273,11 @@ def test_bad_command_lines_are_one_clear_refusal(tmp_path, monkeypatch, case):
     result = _invoke(args)
     assert not isinstance(result.exception, _WouldCompute), f"accepted: {args}"
     _assert_rejected_naming(result, words)
+
+
+@pytest.mark.parametrize("workers", [0, -1])
+def test_a_sweep_of_no_workers_is_refused_before_any_cluster(tmp_path, workers):
+    from grainfrac.studies.sweep import SweepError, run_sweeps
+
+    with pytest.raises(SweepError, match="n_workers: must be >= 1"):
+        run_sweeps([], n_workers=workers)
