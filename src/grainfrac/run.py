@@ -153,6 +153,8 @@ def run_directory(out: Path, scenario: Scenario, recipe: RockRecipe, *,
     anything else.
     """
     out = Path(out)
+    if resume and not out.is_dir():
+        raise RunDirectoryError(f"--resume: {out} holds no run to continue (no such directory)")
     expected = fingerprint(scenario, recipe, base_dir)
     with ExitStack() as stack:
         # Only the setup's OS errors are about --out; the run's own propagate unchanged.
