@@ -397,3 +397,15 @@ def test_legend_names_every_code_in_the_files_and_the_sign_conventions(finished)
     assert signs["grain stress (stress_Pa)"] == "tension positive"
     assert signs["contact normal stress (normal_stress_Pa)"] == "compression positive"
     assert signs["contact opening (opening_m)"] == "opening positive"
+
+
+@pytest.mark.parametrize("keep", [0.5, 0.02])
+def test_a_truncated_checkpoint_is_one_line(finished, tmp_path, keep):
+    import shutil
+
+    out = tmp_path / "cut"
+    shutil.copytree(finished[0], out)
+    data = checkpoint_path(out).read_bytes()
+    checkpoint_path(out).write_bytes(data[:int(len(data) * keep)])
+    line = _one_line(runner.invoke(app, ["run", "--resume", "--out", str(out)]))
+    assert "state.h5" in line and ("truncated" in line or "not a grainfrac checkpoint" in line)

@@ -196,6 +196,9 @@ def _check_resumable(out: Path, expected: dict[str, Any], scenario: Scenario,
     if why:
         raise RunDirectoryError(f"--resume: {out} holds another run ({why}); resume it "
                                 "without a scenario or --seed, or use another --out")
+    if checkpoint_path(out).is_file():
+        # A damaged checkpoint is refused here, before the specimen is built.
+        read_checkpoint(checkpoint_path(out))
 
 
 # What grainfrac writes into a run directory (a sweep adds failed.json, a report
