@@ -488,3 +488,19 @@ def test_the_breakable_2d_preset_is_the_example_rock_scaled_by_its_stated_factor
     assert irwin == pytest.approx(100.3, rel=1e-3)
     for contact in preset.contacts.values():
         assert 1.0 < contact.tensile_fracture_energy_J_per_m2 / irwin < 2.0
+
+
+@pytest.mark.parametrize("name", ["../../x", "/tmp/grainfrac-escape/x", "..", "a/../../b",
+                                  "~/x", "C:\\x\\..\\y", ""])
+def test_a_recipe_name_cannot_write_outside_out(monkeypatch, tmp_path, name):
+    """The recipe file is named from the targets file's ``name``; a path in it stays inside."""
+    monkeypatch.setattr(LabBench, "measure", _power_law_bench)
+    config = validate(CalibrationConfig, {"seeds": [0], "name": name})
+    out = tmp_path / "a" / "b" / "out"
+    before = {p for p in tmp_path.rglob("*")}
+    paths = calibration.write_calibration(calibrate(config, BASE), config, out, 1.0)
+    written = {p for p in tmp_path.rglob("*")} - before
+    assert all(out in p.parents or p == out or p in out.parents for p in written), written
+    assert paths["recipe"].parent == out and paths["recipe"].suffix == ".toml"
+    assert not Path("/tmp/grainfrac-escape").exists()
+    assert materials.load_recipe(paths["recipe"]).name == name  # the name itself is kept

@@ -233,7 +233,8 @@ BAD = {
         "stages.1.peak_pressure_MPa", ["> 0"],
     ),
     "unknown stage key": (
-        {"stages": [EQ, {"kind": "scda", "peak_MPa": 45.0}]}, "stages.1.peak_MPa", ["Extra"],
+        {"stages": [EQ, {"kind": "scda", "peak_MPa": 45.0}]}, "stages.1.peak_MPa",
+        ["unknown key 'peak_MPa'", "did you mean 'peak_pressure_MPa'?"],
     ),
     "inject before equilibrate": (
         {"stages": [INJECT, EQ]}, "stages.0.kind", ["inject must come after equilibrate"],
@@ -293,7 +294,8 @@ BAD = {
         {"fissures": {"fraction": 0.15, "clear_radius_mm": 60.0}, "stages": [EQ]},
         "fissures.clear_radius_mm", [],
     ),
-    "unknown top-level key": ({"stages": [EQ], "injection": {}}, "injection", ["Extra"]),
+    "unknown top-level key": ({"stages": [EQ], "injection": {}}, "injection",
+                              ["unknown key 'injection'", "allowed: fissures"]),
     "unknown rock preset": ({"rock": "basalt", "stages": [EQ]}, "rock", ["basalt"]),
 }
 

@@ -149,7 +149,7 @@ from grainfrac.analysis import stats
 from grainfrac.assembly import FissureSpec, GrainSpec
 from grainfrac.errors import ConfigError, GrainfracError
 from grainfrac.io.config import StrictModel, read_toml, source_path, validate
-from grainfrac.io.files import write_csv, write_json, write_text, write_toml
+from grainfrac.io.files import safe_filename, write_csv, write_json, write_text, write_toml
 from grainfrac.labtests.config import LAB_GRAINS, LabTestConfig
 from grainfrac.units import GPA, MPA
 
@@ -779,7 +779,8 @@ def write_calibration(result: dict[str, Any], config: CalibrationConfig, out: st
     if result.get("held_out"):
         header += (f"# Mean error on the held-out seeds {config.validation_seeds}: "
                    f"{_error_text(result['held_out']['errors'])}\n")
-    recipe_path = write_text(out / f"{recipe.name}.toml",
+    # The name comes from the targets file: as a file name it must not lead out of ``out``.
+    recipe_path = write_text(out / f"{safe_filename(recipe.name, 'calibrated-rock')}.toml",
                              header + tomli_w.dumps(recipe.model_dump(mode="json")))
     rows = table_rows(result)
     table_csv = write_csv(out / "table.csv", rows, list(rows[0]))

@@ -8,6 +8,7 @@ from typing import Annotated
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
 import grainfrac
@@ -23,7 +24,15 @@ err_console = Console(stderr=True)
 
 
 def _fail(exc: Exception) -> None:
-    err_console.print(f"[bold red]error:[/] {exc}", highlight=False, soft_wrap=True)
+    if isinstance(exc, OSError) and exc.strerror:
+        # An OS error that no layer below turned into a GrainfracError: one line
+        # (what, where), never a traceback.
+        where = f": {exc.filename}" if exc.filename else ""
+        text = f"{exc.strerror}{where}"
+    else:
+        text = str(exc)
+    # The text may hold user input ("[/]" in a key): never read as markup.
+    err_console.print(f"[bold red]error:[/] {escape(text)}", highlight=False, soft_wrap=True)
     raise typer.Exit(code=2)
 
 
@@ -57,9 +66,12 @@ def specimen(
     from grainfrac.viz.specimen import plot_assembly
 
     try:
+        from grainfrac.scenario import check_size
+
         config, recipe = load_specimen_config(spec)
         if seed is not None:
             config = config.model_copy(update={"seed": seed})
+        check_size(config)
         start = time.perf_counter()
         with console.status("tessellating and meshing..."):
             assembly = build_assembly(config, recipe)
@@ -83,7 +95,7 @@ def specimen(
             plot_assembly(assembly, out / "specimen.png", show_mesh=mesh,
                           title=f"{summary['specimen']} - {recipe.name} - seed {config.seed}")
         write_json(out / "summary.json", summary)
-    except GrainfracError as exc:
+    except (GrainfracError, OSError) as exc:
         _fail(exc)
     _print_specimen_summary(summary, out)
 
@@ -148,7 +160,7 @@ def verify(
         else:
             with console.status(f"running verification case {name}..."):
                 comparisons = CASES[name](seed=seed)
-    except GrainfracError as exc:
+    except (GrainfracError, OSError) as exc:
         _fail(exc)
     wall = time.perf_counter() - start
     if json_rows:
@@ -167,16 +179,31 @@ def run(
     out: Annotated[Path, typer.Option("--out", help="Run directory.")] = Path("run"),
     seed: Annotated[int | None, typer.Option(help="Override the scenario's seed.")] = None,
     resume: Annotated[bool, typer.Option("--resume", help="Continue the run in --out from its "
-                                         "last checkpoint.")] = False,
+                                         "last checkpoint (a SCENARIO or --seed given with it "
+                                         "must be the run's).")] = False,
+    overwrite: Annotated[bool, typer.Option("--overwrite", help="Clear --out first if it "
+                                            "holds an earlier run.")] = False,
 ) -> None:
-    """Run a scenario's stages into a run directory (config, history, cracks, snapshots)."""
+    """Run a scenario's stages into a run directory (config, history, cracks, snapshots).
+
+    --out must be new or empty (or --overwrite); one process at a time writes it."""
     from grainfrac.runner import run_with_progress
 
     if scenario is None and not resume:
         _fail(ValueError("give a SCENARIO file, or --resume with --out DIR"))
+    if resume and overwrite:
+        _fail(ValueError("--resume continues the run in --out, --overwrite clears it: "
+                         "give one of them"))
+    from grainfrac.run import RunInterrupted
+
     try:
-        summary = run_with_progress(scenario, out, seed=seed, resume=resume, console=console)
-    except GrainfracError as exc:
+        summary = run_with_progress(scenario, out, seed=seed, resume=resume,
+                                    overwrite=overwrite, console=console)
+    except RunInterrupted as exc:
+        err_console.print(f"[bold yellow]stopped:[/] {escape(str(exc))}", highlight=False,
+                          soft_wrap=True)
+        raise typer.Exit(code=130) from None  # the shell's code for an interrupted command
+    except (GrainfracError, OSError) as exc:
         _fail(exc)
     _print_run_summary({out.name: summary})
     console.print(f"wrote {out}/ (summary.json, history.csv, cracks.csv, snapshots/, figures/)")
@@ -186,13 +213,16 @@ def run(
 def demo(
     out: Annotated[Path, typer.Option("--out", help="Directory for the two runs.")] = Path("demo"),
     seed: Annotated[int, typer.Option(help="Grain structure seed (same for both runs).")] = 0,
+    overwrite: Annotated[bool, typer.Option("--overwrite", help="Clear the two run "
+                                            "directories first if they hold earlier runs.")
+                         ] = False,
 ) -> None:
     """HS-only vs hybrid SCDA-HS on the default slab, stress Case 2, 90 ml/min (paper Fig. 17)."""
     from grainfrac.runner import run_demo
 
     try:
-        results = run_demo(out, seed=seed, console=console)
-    except GrainfracError as exc:
+        results = run_demo(out, seed=seed, console=console, overwrite=overwrite)
+    except (GrainfracError, OSError) as exc:
         _fail(exc)
     _print_run_summary(results)
     hs, hy = results["hs-only"], results["hybrid"]
@@ -264,7 +294,7 @@ def labtest(
             cfg = lab_test_config(**{k: v for k, v in overrides.items() if v is not None})
         recipe = cfg.recipe(config.parent if config is not None else Path.cwd())
         summary = _run_labtest_with_progress(cfg, recipe, out)
-    except GrainfracError as exc:
+    except (GrainfracError, OSError) as exc:
         _fail(exc)
     table = Table(title=f"{test.upper()} {cfg.run_name} ({recipe.name})")
     table.add_column("quantity")
@@ -337,12 +367,12 @@ def calibrate(
                 config, recipe, log=lambda msg: (console.print(msg), status.update(msg)),
                 on_evaluation=checkpoint, replay=replay)
         paths = calibration.write_calibration(result, config, out, time.perf_counter() - start)
-    except (GrainfracError, KeyboardInterrupt) as exc:
+    except (GrainfracError, OSError, KeyboardInterrupt) as exc:
         if saved:
             err_console.print(f"stopped after evaluation {saved[-1]}; the evaluations are in "
                               f"{out / 'history.csv'}. Continue with: grainfrac calibrate "
                               f"{targets} --out {out} --resume", highlight=False, soft_wrap=True)
-        _fail(exc if isinstance(exc, GrainfracError) else GrainfracError("interrupted"))
+        _fail(GrainfracError("interrupted") if isinstance(exc, KeyboardInterrupt) else exc)
     table = Table(title=f"{config.name}: laboratory vs simulated (mean of seeds {config.seeds})")
     for col in calibration.table_headings(result):
         table.add_column(col, justify="right" if col != "quantity" else "left")
@@ -376,7 +406,7 @@ def analyse(
         for path in run_dirs:
             results[str(path)] = analyse_run(path, radius_mm=radii[0] if radii else None,
                                              more_radii_mm=radii[1:])
-    except GrainfracError as exc:
+    except (GrainfracError, OSError) as exc:
         _fail(exc)
     if as_json:
         console.print_json(json.dumps(results))
@@ -410,7 +440,7 @@ def report(
                else run_dirs[0].parent / "report.html")
     try:
         path = build_report(run_dirs, out)
-    except GrainfracError as exc:
+    except (GrainfracError, OSError) as exc:
         _fail(exc)
     console.print(f"wrote {path}")
 
@@ -428,7 +458,8 @@ def sweep(
         "--scheduler", help="Address of a running Dask scheduler, e.g. tcp://host:8786 "
         "(default: a local cluster).")] = None,
     workers: Annotated[int | None, typer.Option(
-        "--workers", help="Workers of the local cluster (default: one per core).")] = None,
+        "--workers", min=1, help="Workers of the local cluster (default: one per core).")
+    ] = None,
 ) -> None:
     """Run a parameter sweep / ensemble on Dask; mean, std and 95 % CI per point.
 
@@ -442,7 +473,7 @@ def sweep(
         with sweep_progress(console) as show:
             result = run_sweep(plan, out, scheduler=scheduler, n_workers=workers,
                                progress=show)
-    except GrainfracError as exc:
+    except (GrainfracError, OSError) as exc:
         _fail(exc)
     console.print(sweep_table(result))
     console.print(f"{result.computed} run(s) computed, {result.skipped} already done, "
@@ -472,7 +503,8 @@ def study(
         "--scheduler", help="Address of a running Dask scheduler (default: a local "
         "cluster).")] = None,
     workers: Annotated[int | None, typer.Option(
-        "--workers", help="Workers of the local cluster (default: one per core).")] = None,
+        "--workers", min=1, help="Workers of the local cluster (default: one per core).")
+    ] = None,
 ) -> None:
     """Run the paper's study matrix as sweeps and write the reproduction report.
 
@@ -488,7 +520,7 @@ def study(
             done = run_paper_study(out, realisations=realisations, only=only,
                                    examples=examples, scheduler=scheduler, n_workers=workers,
                                    progress=show)
-    except GrainfracError as exc:
+    except (GrainfracError, OSError) as exc:
         _fail(exc)
     table = Table(title=f"paper claims ({realisations} realisation(s) per point)")
     for col in ("study", "claim", "ours", "verdict"):

@@ -12,17 +12,26 @@ step and time. Summary and figures are not made here (:mod:`grainfrac.simulation
 
 from __future__ import annotations
 
+import hashlib
+import json
+import logging
+import shutil
+import signal
+import threading
 import time as wallclock
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import ExitStack, contextmanager
 from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+import grainfrac
 from grainfrac.assembly import GrainAssembly, build_assembly
 from grainfrac.errors import CheckpointError, GrainfracError
 from grainfrac.io.checkpoint import read_checkpoint, write_checkpoint
+from grainfrac.io.files import DirectoryBusy, directory_lock, write_json
 from grainfrac.io.results import write_history
 from grainfrac.io.snapshots import SnapshotSeries
 from grainfrac.materials import RockRecipe
@@ -31,7 +40,7 @@ from grainfrac.physics.fields import ring_mean_tangential_stress
 from grainfrac.physics.flow import FluidState
 from grainfrac.physics.model import build_mechanical_model
 from grainfrac.physics.solver import MechanicsSolver, NumericalBlowUp
-from grainfrac.scenario import Scenario
+from grainfrac.scenario import Scenario, resolved_dict
 from grainfrac.stages import Driver, DriverState, Hooks, Stage, World, from_scenario
 from grainfrac.stages.inject import couple_fluid
 from grainfrac.stages.world import SCDA
@@ -48,6 +57,181 @@ def checkpoint_path(out: str | Path) -> Path:
 
 class RunFailed(GrainfracError):
     """A run stopped on a numerical problem; the last good state is checkpointed."""
+
+
+class RunInterrupted(GrainfracError):
+    """A run stopped on SIGINT or SIGTERM after writing a checkpoint to resume from."""
+
+
+class RunDirectoryError(GrainfracError):
+    """A run directory cannot be used as asked: busy, holding another run, or not writable."""
+
+
+# ----------------------------------------------------------------------- run directories
+
+FINGERPRINT_FILE = "fingerprint.json"
+LOCK_FILE = "run.lock"
+# What a directory may hold and still count as empty (a lock left by a killed run).
+_EMPTY_ANYWAY = {LOCK_FILE}
+
+
+def fingerprint(scenario: Scenario, recipe: RockRecipe,
+                base_dir: Path | None = None) -> dict[str, Any]:
+    """What identifies a run: the hash of the resolved scenario (every default, the
+    rock and SCDA materials inline, the seed), the seed and the grainfrac version."""
+    resolved = resolved_dict(scenario, recipe, base_dir)
+    text = json.dumps(resolved, sort_keys=True, separators=(",", ":"))
+    return {"scenario_sha256": hashlib.sha256(text.encode()).hexdigest(),
+            "scenario": scenario.name, "seed": scenario.seed,
+            "grainfrac_version": grainfrac.__version__}
+
+
+def _first_difference(a: Any, b: Any, path: str = "") -> str | None:
+    """The dotted path of the first place where ``a`` and ``b`` differ (None if equal)."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        for key in sorted(a.keys() | b.keys()):
+            found = _first_difference(a.get(key), b.get(key), f"{path}.{key}" if path else key)
+            if found:
+                return found
+        return None
+    if isinstance(a, list) and isinstance(b, list) and len(a) == len(b):
+        for i, (x, y) in enumerate(zip(a, b, strict=True)):
+            found = _first_difference(x, y, f"{path}.{i}" if path else str(i))
+            if found:
+                return found
+        return None
+    return None if a == b else (path or "<root>")
+
+
+def _mismatch(out: Path, stored: dict[str, Any], now: dict[str, Any],
+              scenario: Scenario, recipe: RockRecipe, base_dir: Path | None) -> str | None:
+    """Why the run in ``out`` (``stored``) is not the run asked for (``now``), or None."""
+    if stored.get("scenario_sha256") == now["scenario_sha256"] and \
+            stored.get("grainfrac_version") == now["grainfrac_version"]:
+        return None
+    if stored.get("grainfrac_version") != now["grainfrac_version"]:
+        return (f"written by grainfrac {stored.get('grainfrac_version')}, this is "
+                f"{now['grainfrac_version']}")
+    if stored.get("seed") != now["seed"]:
+        return f"it has seed {stored.get('seed')}, not {now['seed']}"
+    if stored.get("scenario") != now["scenario"]:
+        return f"it is scenario {stored.get('scenario')!r}, not {now['scenario']!r}"
+    where = None
+    config = out / "config.toml"
+    if config.is_file():
+        from grainfrac.io.config import read_toml
+
+        try:
+            where = _first_difference(read_toml(config), resolved_dict(scenario, recipe,
+                                                                       base_dir))
+        except GrainfracError:
+            where = None
+    return "its scenario differs" + (f" at {where}" if where else "")
+
+
+def _clear(out: Path) -> None:
+    for entry in out.iterdir():
+        if entry.name in _EMPTY_ANYWAY:
+            continue
+        if entry.is_dir() and not entry.is_symlink():
+            shutil.rmtree(entry)
+        else:
+            entry.unlink()
+
+
+@contextmanager
+def run_directory(out: Path, scenario: Scenario, recipe: RockRecipe, *,
+                  base_dir: Path | None = None, resume: bool = False,
+                  overwrite: bool = False) -> Iterator[dict[str, Any]]:
+    """Hold ``out`` for one run of ``scenario``; yield the run's :func:`fingerprint`.
+
+    Takes ``out/run.lock`` (a second process gets :class:`RunDirectoryError`),
+    then: to resume, ``out`` must hold ``fingerprint.json`` of this same run; for
+    a new run ``out`` must be empty (apart from a lock file), or ``overwrite``
+    clears it, but only if it holds nothing but what grainfrac writes
+    (:data:`RUN_DIRECTORY_ENTRIES`). A new run's fingerprint is written before
+    anything else.
+    """
+    out = Path(out)
+    if resume and not out.is_dir():
+        raise RunDirectoryError(f"--resume: {out} holds no run to continue (no such directory)")
+    expected = fingerprint(scenario, recipe, base_dir)
+    with ExitStack() as stack:
+        # Only the setup's OS errors are about --out; the run's own propagate unchanged.
+        try:
+            stack.enter_context(directory_lock(out, LOCK_FILE))
+            if resume:
+                _check_resumable(out, expected, scenario, recipe, base_dir)
+            else:
+                _prepare_new(out, overwrite)
+                write_json(out / FINGERPRINT_FILE, expected)
+        except DirectoryBusy as exc:
+            raise RunDirectoryError(f"{exc}; wait for it to finish or use another --out"
+                                    ) from None
+        except (FileExistsError, NotADirectoryError) as exc:
+            raise RunDirectoryError(f"--out {out}: a file is in the way ({exc.strerror}: "
+                                    f"{exc.filename})") from None
+        except OSError as exc:
+            raise RunDirectoryError(f"--out {out}: cannot be written ({exc.strerror}: "
+                                    f"{exc.filename})") from None
+        yield expected
+
+
+def _check_resumable(out: Path, expected: dict[str, Any], scenario: Scenario,
+                     recipe: RockRecipe, base_dir: Path | None) -> None:
+    path = out / FINGERPRINT_FILE
+    if not path.is_file() and (out / LEGACY_CHECKPOINT_FILE).is_file():
+        read_checkpoint(out / LEGACY_CHECKPOINT_FILE)  # says which grainfrac wrote it
+    if not path.is_file():
+        raise RunDirectoryError(
+            f"--resume: {out} holds no {FINGERPRINT_FILE}, so it cannot be checked to be "
+            "this run's; run the scenario again without --resume (add --overwrite)")
+    try:
+        stored = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise RunDirectoryError(f"--resume: {path} cannot be read ({exc})") from None
+    if not isinstance(stored, dict):
+        raise RunDirectoryError(f"--resume: {path} is not a run fingerprint")
+    why = _mismatch(out, stored, expected, scenario, recipe, base_dir)
+    if why:
+        raise RunDirectoryError(f"--resume: {out} holds another run ({why}); resume it "
+                                "without a scenario or --seed, or use another --out")
+    if checkpoint_path(out).is_file():
+        # A damaged checkpoint is refused here, before the specimen is built.
+        read_checkpoint(checkpoint_path(out))
+
+
+# What grainfrac writes into a run directory (a sweep adds failed.json, a report
+# report.html). --overwrite clears a directory only if it holds nothing else.
+RUN_DIRECTORY_ENTRIES = frozenset({
+    FINGERPRINT_FILE, LOCK_FILE, "config.toml", "summary.json", "history.csv", "cracks.csv",
+    "snapshots", "figures", "checkpoint", "run.log", "legend.json", "report.html",
+    "failed.json",
+})
+
+
+def _ours(name: str) -> bool:
+    # The atomic writers' temporary files are ".<stem>.<random><suffix>".
+    if name.startswith("."):
+        return any(name.startswith(f".{Path(e).stem}.") for e in RUN_DIRECTORY_ENTRIES)
+    return name in RUN_DIRECTORY_ENTRIES
+
+
+def _prepare_new(out: Path, overwrite: bool) -> None:
+    present = sorted({p.name for p in out.iterdir()} - _EMPTY_ANYWAY)
+    if not present:
+        return
+    if not overwrite:
+        raise RunDirectoryError(
+            f"--out {out} is not empty ({len(present)} entries, e.g. {present[0]}); continue "
+            "its run with --resume, clear it with --overwrite, or use another --out")
+    foreign = [name for name in present if not _ours(name)]
+    if foreign:
+        # --out ~ --overwrite must not empty a home directory.
+        raise RunDirectoryError(
+            f"--overwrite: {out} holds {foreign[0]!r}, which no grainfrac run writes, so it "
+            "is not cleared; give an empty or new --out")
+    _clear(out)
 
 
 @dataclass
@@ -81,13 +265,69 @@ def _arrays(obj: Any) -> dict[str, np.ndarray]:
     return {f.name: np.asarray(getattr(obj, f.name)) for f in fields(obj)}
 
 
+log = logging.getLogger(__name__)
+# Seconds between two progress lines in run.log (and on stderr off a terminal).
+LOG_EVERY_S = 30.0
+LOG_FILE = "run.log"
+
+
+@contextmanager
+def run_log(out: Path) -> Iterator[Path]:
+    """Send grainfrac's log records (INFO and up) to ``out/run.log`` (appended: a
+    resumed run continues its log) while the block runs."""
+    path = Path(out) / LOG_FILE
+    handler = logging.FileHandler(path, encoding="utf-8")
+    handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(message)s"))
+    handler.setLevel(logging.INFO)
+    logger = logging.getLogger("grainfrac")
+    level = logger.level
+    if logger.getEffectiveLevel() > logging.INFO:
+        logger.setLevel(logging.INFO)
+    logger.addHandler(handler)
+    try:
+        yield path
+    finally:
+        logger.removeHandler(handler)
+        handler.close()
+        logger.setLevel(level)
+
+
+@contextmanager
+def stop_on_signals(request_stop: Callable[[str], None]) -> Iterator[None]:
+    """While the block runs, SIGINT and SIGTERM call ``request_stop(name)`` instead of
+    killing the process (a second one does: the user insists). Only in the main
+    thread, where Python delivers signals; elsewhere (a Dask worker's thread) the
+    block runs with the handlers as they are."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous: dict[int, Any] = {}
+
+    def handler(signum: int, frame: Any) -> None:
+        for sig, old in previous.items():
+            signal.signal(sig, old)  # the next one is not caught
+        request_stop(signal.Signals(signum).name)
+
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        previous[sig] = signal.signal(sig, handler)
+    try:
+        yield
+    finally:
+        for sig, old in previous.items():
+            signal.signal(sig, old)
+
+
 class Run(Hooks):
     """A scenario being run into a directory."""
 
     def __init__(self, scenario: Scenario, recipe: RockRecipe, out: Path, *,
                  base_dir: Path | None = None,
-                 progress: Callable[[Progress], None] | None = None):
+                 progress: Callable[[Progress], None] | None = None,
+                 fingerprint: dict[str, Any] | None = None):
         self.scenario = scenario
+        # Written into every checkpoint and checked on restore: a checkpoint copied
+        # or left from another run is refused, not continued under this run's name.
+        self.fingerprint = fingerprint
         self.recipe = recipe
         self.out = Path(out)
         self.progress = progress
@@ -101,6 +341,15 @@ class Run(Hooks):
         self._centroids = mesh.node_xy[mesh.element_nodes].mean(axis=1)
         self._last_checkpoint = wallclock.monotonic()
         self._started = wallclock.monotonic()
+        self.log_every_s = LOG_EVERY_S
+        self._last_log = wallclock.monotonic()
+        self._stage_wall_start = wallclock.monotonic()
+        self._stop: str | None = None
+
+    def request_stop(self, reason: str) -> None:
+        """Stop at the end of the chunk in progress, with a checkpoint (a signal handler
+        calls this: it only sets a flag, the loop does the rest)."""
+        self._stop = reason
 
     @property
     def solver(self) -> MechanicsSolver:
@@ -134,17 +383,57 @@ class Run(Hooks):
         self._record(stage)
         if stage.periodic_snapshots:
             self._maybe_snapshot()
+        if wallclock.monotonic() - self._last_log >= self.log_every_s:
+            self._log_progress(stage)
 
     def after_stage(self, stage: Stage) -> None:
         self.record.stage_times.setdefault(stage.kind, [stage.state.start_time,
                                                         self.solver.time])
         self._maybe_snapshot(force=True)
         self.checkpoint()
+        i = self.stages.index(stage)
+        log.info("stage %d/%d %s done at t = %.4f ms (stage %.4f ms, %.0f s wall), "
+                 "%d cracks", i + 1, len(self.stages), stage.kind, self.solver.time * 1e3,
+                 (self.solver.time - stage.state.start_time) * 1e3,
+                 wallclock.monotonic() - self._stage_wall_start,
+                 int(self.world.rock_cracks().sum()))
+        self._stage_wall_start = wallclock.monotonic()
+        self._stop_if_asked()
 
     def between_chunks(self) -> None:
         every = self.scenario.output.checkpoint_every_minutes * 60.0
-        if wallclock.monotonic() - self._last_checkpoint >= every:
+        if self._stop is None and wallclock.monotonic() - self._last_checkpoint >= every:
             self.checkpoint()
+        if self._stop is not None:
+            self.checkpoint()
+        self._stop_if_asked()
+
+    def _stop_if_asked(self) -> None:
+        # Called where the last checkpoint is the state now: a resume retraces the
+        # uninterrupted run from here.
+        if self._stop is None:
+            return
+        i = min(self.driver.state.stage_index, len(self.stages) - 1)
+        message = (f"interrupted by {self._stop} in stage {i + 1} ({self.stages[i].kind}) at "
+                   f"t = {self.solver.time * 1e3:.4f} ms; checkpoint written to "
+                   f"{self.checkpoint_path}. Continue with: grainfrac run --resume --out "
+                   f"{self.out}")
+        log.warning(message)
+        raise RunInterrupted(message)
+
+    def _log_progress(self, stage: Stage) -> None:
+        """One line: stage, simulated time, how far, cracks, pressures, ETA of the stage."""
+        self._last_log = now = wallclock.monotonic()
+        i = self.stages.index(stage)
+        fraction = stage.fraction()
+        spent = now - self._stage_wall_start
+        eta = f"{spent * (1 - fraction) / fraction:.0f} s" if 0 < fraction < 1 else "-"
+        w = self.world
+        log.info("stage %d/%d %s: t = %.4f ms, %.1f %% of the stage, %d cracks, well "
+                 "%.3f MPa, SCDA %.2f MPa, step %d, ETA of the stage %s", i + 1,
+                 len(self.stages), stage.kind, self.solver.time * 1e3, 100 * fraction,
+                 int(w.rock_cracks().sum()), w.well_pressure() / 1e6,
+                 w.expansive_pressure() / 1e6, self.solver.step_count, eta)
 
     def at_end(self) -> None:
         self.checkpoint()
@@ -219,6 +508,8 @@ class Run(Hooks):
                              if isinstance(getattr(s.loads, f.name), np.ndarray)},
             "solver/cracks": _arrays(s.cracks),
         }
+        if self.fingerprint is not None:
+            records["fingerprint"] = dict(self.fingerprint)
         for i, stage in enumerate(self.stages):
             records[f"stages/{i}"] = {"kind": stage.kind, **asdict(stage.state)}
         if w.coupled is not None:
@@ -237,6 +528,12 @@ class Run(Hooks):
         elif not path.is_file():
             raise GrainfracError(f"nothing to resume: {path} does not exist")
         records = read_checkpoint(path)
+        saved_print = records.get("fingerprint")
+        if self.fingerprint is not None and saved_print is not None and \
+                saved_print.get("scenario_sha256") != self.fingerprint["scenario_sha256"]:
+            raise CheckpointError(f"{path} is the checkpoint of another run (scenario "
+                                  f"{saved_print.get('scenario')!r}, seed "
+                                  f"{saved_print.get('seed')}): not this run's")
         rec = records["run"]
         rec["snapshots"] = [tuple(x) for x in rec["snapshots"]]
         self.record = RunRecord(**rec)

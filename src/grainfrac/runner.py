@@ -44,13 +44,23 @@ def _fields(p: RunProgress) -> dict[str, Any]:
 
 
 def run_with_progress(scenario_path: Path | None, out: Path, *, seed: int | None = None,
-                      resume: bool = False, console: Console | None = None) -> dict[str, Any]:
-    """``grainfrac run``: one scenario with a live progress bar."""
-    from grainfrac.io.config import read_toml, validate
+                      resume: bool = False, overwrite: bool = False,
+                      console: Console | None = None) -> dict[str, Any]:
+    """``grainfrac run``: one scenario with a live progress bar.
 
-    if resume:
+    With ``resume`` and no scenario file the run directory's own ``config.toml``
+    is the scenario; with one (or a ``seed``) they must be the run's, which
+    :func:`grainfrac.run.run_directory` checks against its fingerprint.
+    """
+    from grainfrac.io.config import read_toml, validate
+    from grainfrac.run import RunDirectoryError
+
+    if resume and scenario_path is None:
         # The run directory holds the resolved scenario: resume needs nothing else.
         config = out / "config.toml"
+        if not config.is_file():
+            raise RunDirectoryError(f"--resume: {out} holds no run to continue "
+                                    f"({config} does not exist)")
         scenario = validate(Scenario, read_toml(config))
         recipe = scenario.recipe(out)
         base_dir = out
@@ -59,18 +69,41 @@ def run_with_progress(scenario_path: Path | None, out: Path, *, seed: int | None
         base_dir = scenario_path.parent
     if seed is not None:
         scenario = scenario.with_seed(seed)
-    with Progress(*_columns(), console=console, transient=False) as bar:
-        task = bar.add_task("run", total=len(scenario.stages), name=scenario.name,
-                            stage="", time_ms=0.0, cracks=0, pressure="")
+    # Off a terminal (nohup, a batch job) the bar shows nothing until the end: the
+    # run log's lines go to stderr as well. GRAINFRAC_LOG_EVERY_S sets their interval.
+    import logging
+    import os
+    import sys
 
-        def show(p: RunProgress) -> None:
-            bar.update(task, **_fields(p))
+    every = float(os.environ.get("GRAINFRAC_LOG_EVERY_S", "0") or 0) or None
+    stream = None
+    if not sys.stderr.isatty():
+        stream = logging.StreamHandler(sys.stderr)
+        stream.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(message)s"))
+        stream.setLevel(logging.INFO)
+        logging.getLogger("grainfrac").addHandler(stream)
+    # The bar starts with the first chunk, so that a refused run directory or a
+    # bad input is one line on its own.
+    bar = Progress(*_columns(), console=console, transient=False)
+    task = bar.add_task("run", total=len(scenario.stages), name=scenario.name,
+                        stage="", time_ms=0.0, cracks=0, pressure="")
 
+    def show(p: RunProgress) -> None:
+        if not bar.live.is_started:
+            bar.start()
+        bar.update(task, **_fields(p))
+
+    try:
         return run_scenario(scenario, recipe, out, base_dir=base_dir, resume=resume,
-                            progress=show)
+                            overwrite=overwrite, progress=show, log_every_s=every)
+    finally:
+        bar.stop()
+        if stream is not None:
+            logging.getLogger("grainfrac").removeHandler(stream)
 
 
-def _demo_worker(name: str, scenario_dict: dict, out: str, events) -> dict[str, Any]:
+def _demo_worker(name: str, scenario_dict: dict, out: str, events,
+                 overwrite: bool = False) -> dict[str, Any]:
     from grainfrac.io.config import validate
 
     scenario = validate(Scenario, scenario_dict)
@@ -78,7 +111,8 @@ def _demo_worker(name: str, scenario_dict: dict, out: str, events) -> dict[str, 
     def report(p: RunProgress) -> None:
         events.put((name, _fields(p)))
 
-    return run_scenario(scenario, scenario.recipe(), Path(out) / name, progress=report)
+    return run_scenario(scenario, scenario.recipe(), Path(out) / name, overwrite=overwrite,
+                        progress=report)
 
 
 def demo_scenarios(seed: int = 0) -> dict[str, Scenario]:
@@ -87,9 +121,22 @@ def demo_scenarios(seed: int = 0) -> dict[str, Scenario]:
 
 
 def run_demo(out: Path, *, seed: int = 0, console: Console | None = None,
-             workers: int | None = None) -> dict[str, dict[str, Any]]:
-    """Run both demo scenarios (in parallel where there are two cores) into ``out``."""
+             workers: int | None = None, overwrite: bool = False) -> dict[str, dict[str, Any]]:
+    """Run both demo scenarios (in parallel where there are two cores) into ``out``.
+
+    ``out/hs-only`` and ``out/hybrid`` are run directories: each must be new or
+    empty unless ``overwrite`` (checked here first, so that neither run starts
+    when one of them would be refused).
+    """
+    from grainfrac.run import RunDirectoryError
+
     scenarios = demo_scenarios(seed)
+    if not overwrite:
+        for name in scenarios:
+            run_dir = Path(out) / name
+            if run_dir.is_dir() and any(p.name != "run.lock" for p in run_dir.iterdir()):
+                raise RunDirectoryError(f"--out {run_dir} is not empty; clear it with "
+                                        "--overwrite or use another --out")
     workers = workers or min(len(scenarios), max(1, mp.cpu_count()))
     payload = {name: resolved_dict(sc, sc.recipe()) for name, sc in scenarios.items()}
     results: dict[str, dict[str, Any]] = {}
@@ -100,7 +147,8 @@ def run_demo(out: Path, *, seed: int = 0, console: Console | None = None,
                  for name, sc in scenarios.items()}
         with ProcessPoolExecutor(max_workers=workers,
                                  mp_context=mp.get_context("spawn")) as pool:
-            futures = {name: pool.submit(_demo_worker, name, payload[name], str(out), events)
+            futures = {name: pool.submit(_demo_worker, name, payload[name], str(out), events,
+                                             overwrite)
                        for name in scenarios}
             while not all(f.done() for f in futures.values()):
                 try:

@@ -34,6 +34,7 @@ Example::
 
 from __future__ import annotations
 
+import difflib
 import math
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -70,6 +71,22 @@ _STRESSABLE_SHAPES = ("slab", "rectangle")
 # with 1 / rate.
 DEFAULT_RATE_ML_PER_MIN = 90.0
 DEFAULT_INJECT_DURATION_MS = 12.0
+
+# Limits checked before anything is built, so that a mistyped size fails at once
+# instead of hanging or running out of memory (issue 42: ``zone_size_mm = 0.01``,
+# ``duration_ms = 1e300``).
+# Elements per zone area: measured 2.22 (default slab, 5562 elements at 2 mm zones)
+# and 2.23 (the same slab at 0.5 mm zones, 89326 elements).
+ELEMENTS_PER_ZONE_AREA = 2.25
+# The assembly and mechanical model took 1.2-2.0 kB of memory per element (measured
+# at those two sizes), so this is 6-10 GB before the run's own arrays.
+MAX_ELEMENTS = 5_000_000
+# Simulated time of one stage: 10 s is 7e7 mechanical steps of the default slab
+# (1.394e-7 s each); the paper's stages last 60 ms at most.
+MAX_STAGE_MS = 10_000.0
+# The borehole must be this many zones across: a 1 mm borehole at 2 mm zones could not
+# be meshed and 0.5 mm crashed the SCDA plug's mesh; 2 mm (one zone) still meshed.
+BOREHOLE_MIN_ZONES = 2.0
 
 
 def default_inject_duration_ms(rate_ml_per_min: float) -> float:
@@ -274,7 +291,7 @@ class ScdaStage(StrictModel):
     velocity_scale_mm_per_s: float = Field(5.0, gt=0, description="f of Eq. 9 [mm/s]")
     decay_rate_per_s: float = Field(20.0, gt=0, description="b of Eq. 9 [1/s]")
     min_velocity_fraction: float = Field(1e-3, gt=0, lt=1, description="stop when v < this x f")
-    max_duration_ms: float = Field(60.0, gt=0, description="time limit [ms]")
+    max_duration_ms: float = Field(60.0, gt=0, le=MAX_STAGE_MS, description="time limit [ms]")
     scda: str | materials.ScdaRecipe = Field("scda", description="SCDA material")
 
     def material(self, base_dir: Path | None = None) -> materials.ScdaRecipe:
@@ -329,7 +346,8 @@ class InjectStage(StrictModel):
 
     kind: Literal["inject"] = Field("inject", description="selects this stage")
     rate_ml_per_min: float = Field(gt=0, description="injection rate [ml/min]")
-    duration_ms: float | None = Field(None, gt=0, description="injection time [ms]")
+    duration_ms: float | None = Field(None, gt=0, le=MAX_STAGE_MS,
+                                      description="injection time [ms]")
     volume_ml: float | None = Field(None, gt=0, description="injected volume [ml]")
     time_step_ms: float = Field(0.01, gt=0, description="fluid (coupling) time step [ms]")
     stop_at_boundary: bool = Field(
@@ -342,6 +360,11 @@ class InjectStage(StrictModel):
                 "duration_ms: give duration_ms or volume_ml (or both: the stage ends at "
                 "whichever is reached first)"
             )
+        if self.volume_ml is not None and self.volume_ml * ML / self.rate * 1e3 > MAX_STAGE_MS:
+            raise ValueError(
+                f"volume_ml: must take at most {MAX_STAGE_MS:g} ms at rate_ml_per_min = "
+                f"{self.rate_ml_per_min:g}, i.e. <= {MAX_STAGE_MS * 1e-3 * self.rate / ML:g} "
+                f"(got {self.volume_ml:g})")
         if self.time_step_ms >= self.planned_duration_s * 1e3:
             raise ValueError(
                 f"time_step_ms: must be < the stage duration ({self.planned_duration_s * 1e3:g} "
@@ -397,8 +420,8 @@ class OutputSpec(StrictModel):
 # --------------------------------------------------------------------------- scenario
 
 
-def _stage_entry_error(index: int, stage: Any) -> str | None:
-    """The one-line problem with one raw stage entry, or None.
+def _stage_entry_errors(index: int, stage: Any) -> list[str]:
+    """The problems (``field: message`` lines) of one raw stage entry.
 
     Validating a raw entry against its own model gives ``stages.N.field``
     names; pydantic's tagged union would report ``stages.N.inject.field`` and,
@@ -406,19 +429,56 @@ def _stage_entry_error(index: int, stage: Any) -> str | None:
     """
     allowed = ", ".join(STAGE_KINDS)
     if isinstance(stage, BaseModel):
-        return None
+        return []
     if not isinstance(stage, dict):
-        return f"stages.{index}: must be a table with a kind ({allowed}) (got {stage!r})"
+        return [f"stages.{index}: must be a table with a kind ({allowed}) (got {stage!r})"]
     kind = stage.get("kind")
     if kind is None:
-        return f"stages.{index}.kind: missing; allowed: {allowed}"
+        return [f"stages.{index}.kind: missing; allowed: {allowed}"]
     if kind not in STAGE_MODELS:
-        return f"stages.{index}.kind: unknown stage {kind!r}; allowed: {allowed}"
+        close = difflib.get_close_matches(str(kind), STAGE_KINDS, n=1)
+        hint = f"; did you mean {close[0]!r}?" if close else ""
+        return [f"stages.{index}.kind: unknown stage {kind!r}{hint} (allowed: {allowed})"]
     try:
         validate(STAGE_MODELS[kind], stage, prefix=f"stages.{index}")
     except ConfigError as exc:
-        return f"{exc.field}: {exc.message}"
-    return None
+        return [f"{field}: {message}" for field, message in exc.problems]
+    return []
+
+
+def check_size(config: SpecimenConfig) -> SpecimenConfig:
+    """Check what can be told of a 2D slab's mesh before building it.
+
+    Raises :class:`ConfigError` if the estimated element count exceeds
+    :data:`MAX_ELEMENTS` or a borehole is less than :data:`BOREHOLE_MIN_ZONES`
+    zones across (with a hint when the value looks like metres).
+    """
+    spec, zone = config.specimen, config.grains.zone_size_mm
+    problems: list[tuple[str, str]] = []
+    if isinstance(spec, SlabSpec) and config.dimension == 2:
+        area = spec.width_mm * spec.height_mm - math.pi * spec.borehole_diameter_mm**2 / 4
+        elements = ELEMENTS_PER_ZONE_AREA * area / zone**2
+        if elements > MAX_ELEMENTS:
+            needed = zone * math.sqrt(elements / MAX_ELEMENTS)
+            what = (f"about {elements:.3g} elements for a {spec.width_mm:g} x "
+                    f"{spec.height_mm:g} mm specimen at zone_size_mm = {zone:g}, more than "
+                    f"the {MAX_ELEMENTS:.0e} allowed")
+            if needed <= config.grains.max_edge_mm:
+                problems.append(("grains.zone_size_mm", f"{what}; raise zone_size_mm to at "
+                                 f"least {needed:.3g} or shrink the specimen"))
+            else:  # no zone the grains allow would do: the specimen is the mistake
+                side = "width_mm" if spec.width_mm >= spec.height_mm else "height_mm"
+                problems.append((f"specimen.{side}", f"{what}; shrink the specimen"))
+        d = spec.borehole_diameter_mm
+        if 0 < d < BOREHOLE_MIN_ZONES * zone:
+            hint = " (a value in metres? the unit is mm)" if d < 0.1 else ""
+            problems.append(("specimen.borehole_diameter_mm", (
+                f"must be 0 (no borehole) or >= {BOREHOLE_MIN_ZONES:g} zones "
+                f"({BOREHOLE_MIN_ZONES * zone:g} mm at zone_size_mm = {zone:g}){hint} "
+                f"(got {d:g})")))
+    if problems:
+        raise ConfigError(*problems[0], problems[1:])
+    return config
 
 
 class Scenario(StrictModel):
@@ -448,18 +508,19 @@ class Scenario(StrictModel):
     @classmethod
     def _check_stage_entries(cls, data: Any) -> Any:
         if isinstance(data, dict) and isinstance(data.get("stages"), list):
-            for index, stage in enumerate(data["stages"]):
-                problem = _stage_entry_error(index, stage)
-                if problem:
-                    raise ValueError(problem)
+            # Every stage's problems at once, one line each.
+            problems = [line for index, stage in enumerate(data["stages"])
+                        for line in _stage_entry_errors(index, stage)]
+            if problems:
+                raise ValueError("\n".join(problems))
         return data
 
     @model_validator(mode="after")
     def _check(self) -> Scenario:
         try:
-            self.specimen_config()
+            check_size(self.specimen_config())
         except ConfigError as exc:
-            raise ValueError(f"{exc.field}: {exc.message}") from None
+            raise ValueError("\n".join(f"{f}: {m}" for f, m in exc.problems)) from None
         self._check_borehole()
         self._check_order()
         shape = self.specimen.shape
@@ -594,7 +655,13 @@ def load_scenario(path: str | Path) -> tuple[Scenario, materials.RockRecipe]:
     path = Path(path)
     base = path.parent
     scenario = validate(Scenario, read_toml(path))
-    recipe = scenario.recipe(base)
+    try:
+        recipe = scenario.recipe(base)
+    except ConfigError as exc:
+        if exc.field == "rock" or exc.field.startswith("rock."):
+            raise
+        # A recipe file's own problem (missing, not UTF-8...): say which field named it.
+        raise ConfigError("rock", f"{exc.field}: {exc.message}") from None
     stages = []
     for i, stage in enumerate(scenario.stages):
         if isinstance(stage, ScdaStage):
@@ -709,6 +776,6 @@ __all__ = [
     "BOREHOLE_STAGES", "DEFAULT_INJECT_DURATION_MS", "DEFAULT_RATE_ML_PER_MIN",
     "SPECIMEN_SIDES", "STAGE_KINDS", "STAGE_MODELS", "DrillOutStage", "EquilibrateStage",
     "FluidSpec", "InSituStress", "InjectStage", "OutputSpec", "Scenario", "ScdaStage", "Stage",
-    "default_inject_duration_ms", "hs_only", "hybrid", "load_scenario", "resolved_dict",
-    "write_resolved",
+    "check_size", "default_inject_duration_ms", "hs_only", "hybrid", "load_scenario",
+    "resolved_dict", "write_resolved",
 ]

@@ -8,6 +8,7 @@ turns a finished (or stopped) run into ``cracks.csv``, ``summary.json`` and
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -19,8 +20,8 @@ from grainfrac.analysis import breakdown_summary, contact_fractions, fracture_su
 from grainfrac.io.files import write_json
 from grainfrac.io.results import write_cracks, write_history
 from grainfrac.materials import RockRecipe
-from grainfrac.physics.cracks import crack_catalogue
-from grainfrac.run import Progress, Run
+from grainfrac.physics.cracks import MODE_NAMES, crack_catalogue
+from grainfrac.run import Progress, Run, run_directory, run_log, stop_on_signals
 from grainfrac.scenario import Scenario, write_resolved
 from grainfrac.viz.fields import (
     plot_contact_pressure,
@@ -29,6 +30,41 @@ from grainfrac.viz.fields import (
 )
 from grainfrac.viz.fractures import plot_fracture_pattern
 from grainfrac.viz.pressure import plot_stage_history, plot_well_pressure
+
+log = logging.getLogger(__name__)
+
+
+def legend(run: Run) -> dict[str, Any]:
+    """``legend.json``: the names of the integer codes in the run's files and the sign
+    conventions of its quantities."""
+    a = run.assembly
+    return {
+        "codes": {
+            "mineral": {str(i): name for i, name in enumerate(a.mineral_table.names)},
+            "contact_type": {str(i): name for i, name in enumerate(a.pair_names)},
+            "mode": {"0": "intact", **{str(k): v for k, v in MODE_NAMES.items()}},
+            "failed": {"0": "intact", "1": "broken (tensile or shear)"},
+            "fissure": {"0": "bonded grain boundary", "1": "pre-existing fissure"},
+        },
+        "where": {
+            "mineral": "grains*.vtu, grains.vtu (cell data)",
+            "contact_type": "contacts.vtu (cell data); cracks.csv and history by name",
+            "mode": "contacts*.vtu (cell data); cracks.csv by name",
+            "failed": "contacts*.vtu (cell data)",
+            "fissure": "contacts.vtu (cell data)",
+        },
+        "sign_conventions": {
+            "grain stress (stress_Pa)": "tension positive",
+            "contact normal stress (normal_stress_Pa)": "compression positive",
+            "contact opening (opening_m)": "opening positive",
+            "in-situ stresses (config.toml stress)": "compressive magnitudes, positive",
+            "tangential_stress_near_well_MPa (history.csv)": "compression positive",
+            "fluid pressure": "positive",
+        },
+        "units": "SI in files (m, Pa, s, J) unless the name says otherwise (_MPa, _mm, _ml)",
+        "times": "absolute simulated time (s) from the start of the run, except "
+                 "breakdown_time_s, which counts from the start of injection",
+    }
 
 
 def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
@@ -90,7 +126,11 @@ def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
                                       a.pair_names)
     out["contact_fraction_total"] = total
     out["contact_fraction_failed"] = failed
-    out["in_situ_unbalanced_force_ratio"] = run.stage("equilibrate").state.unbalanced_force_ratio
+    equilibrate = run.stage("equilibrate")
+    out["in_situ_unbalanced_force_ratio"] = equilibrate.state.unbalanced_force_ratio
+    unsettled = equilibrate.unsettled_warning()
+    if unsettled:
+        out["warnings"].append(unsettled)
     stage = run.stage("drill_out")
     if stage is not None:
         drill_out = stage.spec
@@ -142,30 +182,58 @@ def _plot_final_fields(run: Run, figures: Path) -> None:
 
 
 def run_scenario(scenario: Scenario, recipe: RockRecipe, out: str | Path, *,
-                 base_dir: Path | None = None, resume: bool = False,
-                 progress: Callable[[Progress], None] | None = None) -> dict[str, Any]:
+                 base_dir: Path | None = None, resume: bool = False, overwrite: bool = False,
+                 progress: Callable[[Progress], None] | None = None,
+                 log_every_s: float | None = None) -> dict[str, Any]:
     """Run (or resume) a scenario into ``out``; return the summary.
 
-    Writes config.toml (resolved), history.csv, cracks.csv, snapshots/,
-    figures/, summary.json and checkpoint/state.h5. Raises
-    :class:`~grainfrac.run.RunFailed` on a numerical blow-up (the history, crack
-    catalogue and last good checkpoint stay).
+    Writes fingerprint.json, config.toml (resolved), run.log (a progress line
+    every ``log_every_s``, default :data:`grainfrac.run.LOG_EVERY_S`),
+    history.csv, cracks.csv, snapshots/, figures/, summary.json and
+    checkpoint/state.h5, holding
+    ``out/run.lock`` meanwhile (:func:`grainfrac.run.run_directory`: a new run
+    needs an empty ``out`` or ``overwrite``; a resumed one, ``out`` of the same
+    scenario, seed and version). Raises :class:`~grainfrac.run.RunDirectoryError`
+    for a directory it cannot use and :class:`~grainfrac.run.RunFailed` on a
+    numerical blow-up (the history, crack catalogue and last good checkpoint stay).
+    SIGINT or SIGTERM (in the main thread) stop it at the end of the chunk in
+    progress with a checkpoint: :class:`~grainfrac.run.RunInterrupted` says how to
+    resume.
     """
     out = Path(out)
-    run = Run(scenario, recipe, out, base_dir=base_dir, progress=progress)
-    if resume:
-        run.restore()
-    else:
-        write_resolved(out / "config.toml", scenario, recipe)
-    try:
-        run.execute()
-    finally:
-        write_history(out / "history.csv", run.record.history)
-        cat = _rock_crack_catalogue(run)
-        write_cracks(out / "cracks.csv", cat.rows(run.assembly.pair_names))
-    summary = summarise(run, run.wall_time())
-    _plot_run(run, cat, out / "figures")
-    write_json(out / "summary.json", summary)
+    with run_directory(out, scenario, recipe, base_dir=base_dir, resume=resume,
+                       overwrite=overwrite) as print_, run_log(out):
+        log.info("%s run %r, seed %d, into %s (grainfrac %s, scenario sha256 %s)",
+                 "resuming" if resume else "starting", scenario.name, scenario.seed, out,
+                 print_["grainfrac_version"], print_["scenario_sha256"][:12])
+        if not resume:
+            write_resolved(out / "config.toml", scenario, recipe, base_dir)
+        run = Run(scenario, recipe, out, base_dir=base_dir, progress=progress,
+                  fingerprint=print_)
+        if log_every_s is not None:
+            run.log_every_s = log_every_s
+        write_json(out / "legend.json", legend(run))
+        log.info("%d grains, %d elements, %d contacts; stages: %s", run.assembly.n_grains,
+                 run.assembly.mesh.n_elements, run.assembly.mesh.n_contacts,
+                 ", ".join(scenario.stage_kinds))
+        if resume:
+            run.restore()
+        try:
+            with stop_on_signals(run.request_stop):
+                run.execute()
+        finally:
+            write_history(out / "history.csv", run.record.history)
+            cat = _rock_crack_catalogue(run)
+            write_cracks(out / "cracks.csv", cat.rows(run.assembly.pair_names))
+        summary = summarise(run, run.wall_time())
+        _plot_run(run, cat, out / "figures")
+        write_json(out / "summary.json", summary)
+        for warning in summary["warnings"]:
+            log.warning("summary: %s", warning)
+        log.info("done in %.1f s: %d cracks, breakdown pressure %s MPa; wrote %s",
+                 summary["wall_time_s"], summary["n_cracks"],
+                 "-" if summary["breakdown_pressure_MPa"] is None
+                 else f"{summary['breakdown_pressure_MPa']:.3f}", out / "summary.json")
     return summary
 
 

@@ -60,6 +60,18 @@ def read_checkpoint(path: str | Path) -> dict[str, dict[str, Any]]:
                 f"{path} is a checkpoint of an older grainfrac (.npz); this version reads "
                 f"format {FORMAT_VERSION} (.h5) only: run the scenario again without --resume")
         raise CheckpointError(f"{path} is not a grainfrac checkpoint (not an HDF5 file)")
+    try:
+        return _read(path)
+    except (OSError, ValueError, KeyError, RuntimeError) as exc:
+        # h5py reports a truncated or damaged file as OSError (or KeyError/RuntimeError on a
+        # damaged object), a damaged attribute as a JSON ValueError.
+        first = (str(exc).splitlines() or [""])[0][:120]
+        raise CheckpointError(f"{path} is damaged or truncated and cannot be read "
+                              f"({type(exc).__name__}: {first}); run the scenario again "
+                              "without --resume") from None
+
+
+def _read(path: Path) -> dict[str, dict[str, Any]]:
     records: dict[str, dict[str, Any]] = {}
     with h5py.File(path, "r") as f:
         kind, version = f.attrs.get("format"), f.attrs.get("format_version")

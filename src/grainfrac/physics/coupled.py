@@ -338,6 +338,10 @@ class HydroMechanicalSolver:
     def advance(self, dt: float, injection_rate: float = 0.0) -> None:
         """One coupled step of ``dt`` seconds with ``injection_rate`` (m3/s) into the well.
 
+        ``dt`` is rounded up to a whole number of mechanical steps (at least one):
+        the fluid step is the time the mechanics advances, and the well receives
+        ``injection_rate`` times it.
+
         Step control: a step that changes any fluid node's pressure by more than
         :func:`pressure_jump_limit`, leaves a node with negative fluid content, or
         whose mechanics runs away, is undone and done again as two half steps
@@ -425,17 +429,24 @@ class HydroMechanicalSolver:
         return self._pores[1]
 
     def _step(self, dt: float, injection_rate: float) -> None:
+        m = self.mechanics
+        # The mechanics can only advance whole steps of its own: the fluid step is
+        # the time it does advance, so the well gets rate x the simulated time.
+        # Injecting for ``dt`` itself fell short: a fluid step below the mechanical
+        # one still advanced a whole mechanical step, and the default 0.01 ms is
+        # 71.7 steps of the default slab (1.394e-7 s each), run as 72 (issue 42).
+        n_steps = max(1, math.ceil(dt / m.model.dt))
+        dt = n_steps * m.model.dt
         pores = self._current_pores()
         flow.implicit_step(self.network, self.state, pores.aperture, dt, self.fluid,
                            injection_rate, compliance=pores.local_compliance,
                            well_volume=pores.well_void,
                            shared_compliance=pores.shared_compliance)
         self._apply_pressure()
-        m = self.mechanics
         m.pore_springs = self._pore_springs(dt, pores.aperture)
         u_before = m.u.copy()
         try:
-            m.cycle(max(1, math.ceil(dt / m.model.dt)))
+            m.cycle(n_steps)
         finally:
             m.pore_springs = PoreSprings.none()
         if self.well_unit_forces is not None:

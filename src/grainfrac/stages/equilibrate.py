@@ -7,11 +7,14 @@ Lame, both for the KGD confinement).
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass, field
 
 from grainfrac.loading.boundary import normal_pressure_forces
 from grainfrac.loading.insitu import initialise_in_situ
 from grainfrac.stages.world import World
+
+log = logging.getLogger(__name__)
 
 
 @dataclass
@@ -56,6 +59,20 @@ class Equilibrate:
         self.state.unbalanced_force_ratio = result.unbalanced_force_ratio
         self.state.converged = result.converged
         self.state.done = True
+        warning = self.unsettled_warning()
+        if warning:
+            log.warning(warning)
+
+    def unsettled_warning(self) -> str | None:
+        """Why the equilibrium reached is not to be trusted: the step limit came first
+        (the unbalanced-force ratio is above its target). None once converged."""
+        st = self.state
+        if not st.done or st.converged or st.unbalanced_force_ratio is None:
+            return None
+        return (f"equilibrate: the in-situ stress had not settled after max_steps = "
+                f"{self.max_steps} (unbalanced-force ratio {st.unbalanced_force_ratio:.3g}, "
+                f"target {self.ratio:g}), so what followed started from a moving rock; "
+                "raise max_steps")
 
     def finished(self) -> bool:
         return self.state.done

@@ -73,10 +73,14 @@ class Inject:
 
     def advance(self, world: World) -> None:
         st, spec = self.state, self.spec
-        world.coupled.advance(spec.time_step, spec.rate)
+        planned = spec.planned_duration_s
+        # The last step only as long as the time left (the coupling rounds it up to
+        # whole mechanical steps): the stage ends within one mechanical step of its
+        # duration or volume, not up to a fluid step beyond it.
+        left = planned - (world.solver.time - st.start_time)
+        world.coupled.advance(min(spec.time_step, left), spec.rate)
         st.chunks += 1
         elapsed = world.solver.time - st.start_time
-        planned = spec.planned_duration_s
         st.done = elapsed >= planned - 1e-12
         if spec.stop_at_boundary and fracture_at_boundary(world):
             st.done = True

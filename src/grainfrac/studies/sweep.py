@@ -621,11 +621,12 @@ def execute_run(run_dir: str, scenario: dict[str, Any]) -> dict[str, Any]:
     start = time.perf_counter()
     try:
         try:
-            run_scenario(sc, recipe, out, resume=resume)
+            run_scenario(sc, recipe, out, resume=resume, overwrite=not resume)
         except GrainfracError:
             if not resume:
                 raise
-            run_scenario(sc, recipe, out)
+            # The sweep owns its run directories: what a failed resume left is cleared.
+            run_scenario(sc, recipe, out, overwrite=True)
     except GrainfracError as exc:
         write_json(out / FAILED_FILE, {"error": str(exc), "type": type(exc).__name__})
         return {"status": "failed", "error": str(exc), "computed": True}
@@ -752,6 +753,9 @@ def run_sweeps(jobs: Sequence[tuple[SweepPlan, str | Path]], *, scheduler: Any =
     Done runs are skipped without starting a cluster; a stale run directory
     is a :class:`SweepError` before any compute. Tables are written per sweep.
     """
+    if n_workers is not None and n_workers < 1:
+        # A local cluster of no workers never runs a task: the sweep would wait forever.
+        raise SweepError(f"n_workers: must be >= 1 (got {n_workers})")
     start = time.perf_counter()
     outs = [Path(out) for _, out in jobs]
     todo: list[tuple[int, PlannedRun]] = []
