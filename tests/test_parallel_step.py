@@ -62,3 +62,19 @@ def test_parallel_step_is_the_serial_step_bit_for_bit():
     print(f"\n{len(serial.cracks.contact)} cracks, identical; energy books differ by at most "
           f"{worst:.1e} relative (tol 1e-12)")
     assert worst < 1e-12
+
+
+def test_threads_option_is_checked_before_any_compute(monkeypatch):
+    from typer.testing import CliRunner
+
+    from grainfrac.cli import app
+    from grainfrac.physics.solver import THREADS_VARIABLE, default_threads
+
+    monkeypatch.setenv(THREADS_VARIABLE, "1")  # restored after the test
+    runner = CliRunner()
+    bad = runner.invoke(app, ["--threads", "0", "version"])
+    assert bad.exit_code == 2 and "--threads" in bad.output and "got 0" in bad.output
+    assert runner.invoke(app, ["--threads", "lots", "version"]).exit_code == 2
+    good = runner.invoke(app, ["--threads", "all", "version"])
+    assert good.exit_code == 0
+    assert default_threads() == numba.config.NUMBA_NUM_THREADS

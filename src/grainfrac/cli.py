@@ -36,6 +36,27 @@ def _fail(exc: Exception) -> None:
     raise typer.Exit(code=2)
 
 
+@app.callback()
+def _options(
+    threads: Annotated[str | None, typer.Option(
+        "--threads", help="CPU threads of the explicit step: a number or 'all' (default 1, "
+        "or $GRAINFRAC_THREADS). Results are the same on any number; more threads help a "
+        "large model on a machine of its own, not runs that share the cores.")] = None,
+) -> None:
+    """Grain-scale hydro-mechanical fracturing of crystalline rock."""
+    if threads is None:
+        return
+    import os
+
+    from grainfrac.physics.solver import THREADS_VARIABLE, default_threads
+
+    os.environ[THREADS_VARIABLE] = threads
+    try:
+        default_threads()  # checks the value before any compute
+    except ValueError as exc:
+        _fail(ValueError(f"--threads: {exc}".replace(f"{THREADS_VARIABLE} ", "")))
+
+
 @app.command()
 def version() -> None:
     """Print the grainfrac version."""
