@@ -218,7 +218,7 @@ def test_cli_sweep_reads_the_file_and_reuses_the_runs(reference, tmp_path, monke
      "must be > 0"),
     ({"seeds": [1, 1]}, "seeds.1", "listed twice"),
     ({"quantities": ["breakdown_MPa"]}, "quantities.0", "unknown quantity"),
-    ({"paramters": []}, "paramters", "Extra inputs"),
+    ({"paramters": []}, "paramters", "did you mean 'parameters'"),
     ({"base": "nowhere.toml"}, "base", "scenario file not found"),
 ])
 def test_sweep_validation_names_the_field_before_any_compute(change, field, words, tmp_path,
