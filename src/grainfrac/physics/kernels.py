@@ -380,15 +380,18 @@ def update_nodes(nodes, loads, dt, alpha):
     """
     u, v, force = nodes.u, nodes.v, nodes.force
     external, fixed, mass = loads.external, loads.fixed, loads.mass
+    prescribed = loads.prescribed_velocity
+    # A constant component count per dimension lets the compiler unroll the inner loop.
+    d = 2 if u.shape[1] == 2 else 3
     w_ext = 0.0
     w_damp = 0.0
     unbalanced = 0.0
     vmax = 0.0
     for n in range(u.shape[0]):
-        for i in range(u.shape[1]):
+        for i in range(d):
             f = force[n, i] + external[n, i]
             if fixed[n, i]:
-                v[n, i] = loads.prescribed_velocity[n, i]
+                v[n, i] = prescribed[n, i]
                 # The support's reaction balances f and works on the prescribed motion.
                 w_ext -= f * v[n, i] * dt
             else:
