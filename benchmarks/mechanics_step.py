@@ -69,16 +69,23 @@ def _triad(a, b, c, s):
         a[i] = b[i] + s * c[i]
 
 
-def stream_triad(n: int, repeats: int) -> float:
-    """Best single-thread triad bandwidth (GB/s) over ``repeats`` runs, 24 B per element."""
+@njit(cache=True, parallel=True)
+def _triad_parallel(a, b, c, s):
+    for i in prange(a.shape[0]):
+        a[i] = b[i] + s * c[i]
+
+
+def stream_triad(n: int, repeats: int, triad=_triad) -> float:
+    """Best triad bandwidth (GB/s) over ``repeats`` runs, 24 B per element; one thread
+    with the default ``triad``, all numba threads with ``_triad_parallel``."""
     b = np.random.default_rng(0).random(n)
     c = np.random.default_rng(1).random(n)
     a = np.empty(n)
-    _triad(a[:10], b[:10], c[:10], 3.0)  # compile / load
+    triad(a[:10], b[:10], c[:10], 3.0)  # compile / load
     best = math.inf
     for _ in range(repeats):
         start = time.perf_counter()
-        _triad(a, b, c, 3.0)
+        triad(a, b, c, 3.0)
         best = min(best, time.perf_counter() - start)
     return 24.0 * n / best / 1e9
 
@@ -141,26 +148,6 @@ def time_steps(model: MechanicalModel, loads: Loads, steps: int, repeats: int) -
     return best
 
 
-@njit(cache=True, parallel=True)
-def _triad_parallel(a, b, c, s):
-    for i in prange(a.shape[0]):
-        a[i] = b[i] + s * c[i]
-
-
-def stream_triad_threads(n: int, repeats: int) -> float:
-    """Best triad bandwidth (GB/s) on all numba threads."""
-    b = np.random.default_rng(0).random(n)
-    c = np.random.default_rng(1).random(n)
-    a = np.empty(n)
-    _triad_parallel(a[:10], b[:10], c[:10], 3.0)
-    best = math.inf
-    for _ in range(repeats):
-        start = time.perf_counter()
-        _triad_parallel(a, b, c, 3.0)
-        best = min(best, time.perf_counter() - start)
-    return 24.0 * n / best / 1e9
-
-
 def tet_bytes_per_step(model: MechanicalModel) -> int:
     """Bytes one 3D serial step reads and writes, counted as in :func:`bytes_per_step`.
 
@@ -186,7 +173,7 @@ def main_3d(args) -> int:
 
     threads_all = numba.config.NUMBA_NUM_THREADS
     stream_1 = stream_triad(args.stream_n, repeats=5)
-    stream_all = stream_triad_threads(args.stream_n, repeats=5)
+    stream_all = stream_triad(args.stream_n, repeats=5, triad=_triad_parallel)
     print(f"STREAM triad: 1 thread {stream_1:.2f} GB/s, {threads_all} threads "
           f"{stream_all:.2f} GB/s (n = {args.stream_n:.1e})")
     print(f"{'tets':>10}{'contacts':>10}{'threads':>8}{'tet-steps/s':>13}{'ms/step':>9}"
