@@ -100,13 +100,12 @@ def specimen(
         resolved = config.model_dump(mode="json")
         resolved["rock"] = recipe.model_dump(mode="json")
         if assembly.dimension == 3:
-            from grainfrac.io.vtk import write_assembly3d
             from grainfrac.specimen_report import specimen_summary3d
             from grainfrac.viz.specimen import plot_assembly3d
 
             summary = specimen_summary3d(assembly, wall_time_s=wall)
             write_toml(out / "specimen.toml", resolved)
-            write_assembly3d(assembly, out)
+            write_assembly(assembly, out)
             plot_assembly3d(assembly, out / "specimen.png",
                             title=f"3D {summary['specimen']} - {recipe.name} - seed {config.seed}")
         else:

@@ -31,7 +31,7 @@ import shapely
 from scipy.spatial import Delaunay
 
 from grainfrac.errors import GeometryError
-from grainfrac.geometry.mesh import Mesh, contact_frame
+from grainfrac.geometry.mesh import Mesh, contact_frame, simplex_measure
 from grainfrac.geometry.tessellation import GrainMap
 
 # Interior lattice points closer than this fraction of the zone size to the
@@ -116,10 +116,7 @@ class GrainMesh:
 
     def element_areas(self) -> np.ndarray:
         """Signed element areas (m2); positive for counter-clockwise elements."""
-        p = self.node_xy[self.element_nodes]
-        a, b, c = p[:, 0], p[:, 1], p[:, 2]
-        return 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1])
-                      - (c[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1]))
+        return simplex_measure(self.node_xy, self.element_nodes)
 
     def record(self) -> Mesh:
         """The dimension-generic :class:`~grainfrac.geometry.mesh.Mesh` of this mesh."""

@@ -32,7 +32,7 @@ import numpy as np
 from scipy.spatial import Delaunay
 
 from grainfrac.errors import GeometryError
-from grainfrac.geometry.mesh import Mesh, contact_frame
+from grainfrac.geometry.mesh import Mesh, contact_frame, simplex_measure, tet_volumes
 from grainfrac.geometry.solids3d import BOREHOLE
 from grainfrac.geometry.tessellation3d import GrainComplex, _cross
 
@@ -144,8 +144,8 @@ class GrainMesh3D:
         return 1.0
 
     def element_volumes(self) -> np.ndarray:
-        p = self.node_x[self.element_nodes]
-        return _tet_volumes(p)
+        """Signed tetrahedron volumes (m3)."""
+        return simplex_measure(self.node_x, self.element_nodes)
 
     def grain_volumes(self) -> np.ndarray:
         return np.bincount(self.element_grain, weights=self.element_volumes(),
@@ -169,11 +169,6 @@ class GrainMesh3D:
         return dihedral_angles(self.node_x[self.element_nodes]).min(axis=1)
 
 
-def _tet_volumes(p: np.ndarray) -> np.ndarray:
-    a, b, c = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0], p[:, 3] - p[:, 0]
-    return np.einsum("ij,ij->i", _cross(a, b), c) / 6.0
-
-
 def dihedral_angles(p: np.ndarray) -> np.ndarray:
     """(m, 6) dihedral angles (degrees) of tetrahedra ``p[m, 4, 3]``."""
     faces = ((1, 2, 3), (0, 3, 2), (0, 1, 3), (0, 2, 1))
@@ -191,7 +186,7 @@ def dihedral_angles(p: np.ndarray) -> np.ndarray:
 
 def tet_quality(p: np.ndarray) -> np.ndarray:
     """Normalised volume ``6 sqrt(2) V / l_rms^3`` (1 for a regular tetrahedron)."""
-    vol = np.abs(_tet_volumes(p))
+    vol = np.abs(tet_volumes(p))
     e = [p[:, j] - p[:, i] for i, j in ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3))]
     l2 = sum(np.einsum("ij,ij->i", v, v) for v in e) / 6.0
     return 6.0 * math.sqrt(2.0) * vol / l2 ** 1.5
@@ -359,7 +354,7 @@ def _tetrahedralise(bxyz: np.ndarray, interior: np.ndarray, piece: int
     for _ in range(_CLEANUP_PASSES + 1):
         x = np.vstack((bxyz, interior))
         tets = Delaunay(x).simplices
-        vol = _tet_volumes(x[tets])
+        vol = tet_volumes(x[tets])
         scale = float(np.ptp(x, axis=0).max()) ** 3
         tets = tets[np.abs(vol) > 1e-13 * scale]
         vol = vol[np.abs(vol) > 1e-13 * scale]

@@ -60,17 +60,6 @@ def contacts_mesh(assembly: GrainAssembly) -> meshio.Mesh:
                        cell_data={k: [v] for k, v in cell_data.items()})
 
 
-def write_assembly(assembly: GrainAssembly, directory: str | Path) -> list[Path]:
-    """Write ``grains.vtu`` and ``contacts.vtu`` into ``directory`` (atomically)."""
-    directory = Path(directory)
-    out = []
-    for name, build in (("grains.vtu", grains_mesh), ("contacts.vtu", contacts_mesh)):
-        data = build(assembly)
-        out.append(write_atomic(directory / name,
-                                lambda p, d=data: meshio.write(p, d, file_format="vtu")))
-    return out
-
-
 # -- 3D ---------------------------------------------------------------------------------
 def grains_mesh3d(assembly: GrainAssembly) -> meshio.Mesh:
     """Tetrahedra with cell data ``grain_id``, ``mineral``, ``youngs_modulus_Pa``, ..."""
@@ -107,11 +96,16 @@ def contacts_mesh3d(assembly: GrainAssembly) -> meshio.Mesh:
                        cell_data={k: [v] for k, v in cell_data.items()})
 
 
-def write_assembly3d(assembly: GrainAssembly, directory: str | Path) -> list[Path]:
-    """Write ``grains.vtu`` (tetrahedra) and ``contacts.vtu`` (grain faces) atomically."""
+def write_assembly(assembly: GrainAssembly, directory: str | Path) -> list[Path]:
+    """Write ``grains.vtu`` and ``contacts.vtu`` into ``directory`` (atomically).
+
+    2D: triangles and sub-contacts as short lines; 3D: tetrahedra and grain faces.
+    """
     directory = Path(directory)
+    builders = ((grains_mesh, contacts_mesh) if assembly.dimension == 2
+                else (grains_mesh3d, contacts_mesh3d))
     out = []
-    for name, build in (("grains.vtu", grains_mesh3d), ("contacts.vtu", contacts_mesh3d)):
+    for name, build in zip(("grains.vtu", "contacts.vtu"), builders, strict=True):
         data = build(assembly)
         out.append(write_atomic(directory / name,
                                 lambda p, d=data: meshio.write(p, d, file_format="vtu")))
