@@ -278,17 +278,29 @@ def kirsch(sigma_x: float = 2.5e6, sigma_y: float = 5.0e6, seed: int = 0, *,
                                exact / MPA, KIRSCH_WALL_TOLERANCE))
 
     r, theta, hoop, area = element_polar(assembly, solver.stress)
-    exact_at_centroids = kirsch_hoop_stress(r, theta, a, sxx, syy)
+    rows += hoop_decay_rows("kirsch", r, theta, hoop, area, a, (sxx, syy), DECAY_RADII,
+                            KIRSCH_DECAY_TOLERANCE)
+    return rows
+
+
+def hoop_decay_rows(case: str, r, theta, hoop, weight, radius: float, far_field,
+                    radii, tolerance: float, where=None) -> list[Comparison]:
+    """Measure-weighted hoop stress of the elements in bands at ``k`` radii on the 0 and
+    90 degree axes against Kirsch at the same centroids (``far_field = (sxx, syy)``);
+    ``where`` restricts the elements (e.g. to a 3D slab's mid-plane)."""
+    exact = kirsch_hoop_stress(r, theta, radius, *far_field)
+    rows = []
     for angle in (0, 90):
-        for k in DECAY_RADII:
-            sel = sector_band(r, theta, a, k, angle)
+        for k in radii:
+            sel = sector_band(r, theta, radius, k, angle)
+            if where is not None:
+                sel &= where
             if not sel.any():
                 raise VerificationError(f"no elements near r = {k}a, {angle} deg")
-            sim = np.average(hoop[sel], weights=area[sel])
-            ref = np.average(exact_at_centroids[sel], weights=area[sel])
-            rows.append(Comparison("kirsch", f"hoop_stress_{k}a_{angle}deg_MPa",
-                                   float(sim) / MPA, float(ref) / MPA,
-                                   KIRSCH_DECAY_TOLERANCE))
+            sim = np.average(hoop[sel], weights=weight[sel])
+            ref = np.average(exact[sel], weights=weight[sel])
+            rows.append(Comparison(case, f"hoop_stress_{k}a_{angle}deg_MPa",
+                                   float(sim) / MPA, float(ref) / MPA, tolerance))
     return rows
 
 

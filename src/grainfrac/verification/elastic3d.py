@@ -56,9 +56,9 @@ from grainfrac.verification.elastic import (
     DECAY_RADII,
     UM,
     VerificationError,
+    hoop_decay_rows,
     kirsch_hoop_stress,
     lame_wall_displacement,
-    sector_band,
 )
 from grainfrac.verification.report import Comparison
 
@@ -362,17 +362,8 @@ def kirsch3d(sigma_x: float = CASE2[0], sigma_y: float = CASE2[1], sigma_z: floa
                                exact / MPA, KIRSCH3D_WALL_TOLERANCE))
     r, theta, z, hoop, vol = element_polar3d(assembly, eq.solver.stress)
     mid = np.abs(z - z_mid) <= 0.25 * float(solid.extent[2])
-    exact_c = kirsch_hoop_stress(r, theta, a, sxx, syy)
     half_width = 0.5 * float(min(solid.extent[0], solid.extent[1]))
     radii = [k for k in DECAY_RADII if (k + 1) * a <= half_width]  # bands clear of the sides
-    for angle in (0, 90):
-        for k in radii:
-            sel = sector_band(r, theta, a, k, angle) & mid
-            if not sel.any():
-                raise VerificationError(f"no elements near r = {k}a, {angle} deg")
-            sim = np.average(hoop[sel], weights=vol[sel])
-            ref = np.average(exact_c[sel], weights=vol[sel])
-            rows.append(Comparison("kirsch3d", f"hoop_stress_{k}a_{angle}deg_MPa",
-                                   float(sim) / MPA, float(ref) / MPA,
-                                   KIRSCH3D_DECAY_TOLERANCE))
+    rows += hoop_decay_rows("kirsch3d", r, theta, hoop, vol, a, (sxx, syy), radii,
+                            KIRSCH3D_DECAY_TOLERANCE, where=mid)
     return rows
