@@ -21,16 +21,10 @@ def contact_type_fractions(assembly: GrainAssembly, mask: np.ndarray | None = No
             for n, c in zip(assembly.pair_names, counts, strict=True)}
 
 
-def specimen_summary(assembly: GrainAssembly, wall_time_s: float | None = None) -> dict[str, Any]:
-    """Scalar description of an assembly, with the summary key names of docs/outputs.md."""
+def _counts(assembly: GrainAssembly) -> dict[str, Any]:
+    """Grains, elements, nodes, contacts, grain boundaries and fissures (both dimensions)."""
     mesh = assembly.mesh
-    achieved = assembly.volume_fractions()
     return {
-        "grainfrac_version": grainfrac.__version__,
-        "seed": assembly.seed,
-        "wall_time_s": wall_time_s,
-        "specimen": mesh.grains.outline.kind,
-        "rock": assembly.recipe.name,
         "n_grains": assembly.n_grains,
         "n_elements": mesh.n_elements,
         "n_nodes": mesh.n_nodes,
@@ -38,14 +32,31 @@ def specimen_summary(assembly: GrainAssembly, wall_time_s: float | None = None) 
         "n_interfaces": mesh.n_interfaces,
         "n_fissures": int(assembly.interface_fissure.sum()),
         "fissure_fraction": float(assembly.interface_fissure.mean()),
+    }
+
+
+def _volume_percent(assembly: GrainAssembly) -> dict[str, dict[str, float]]:
+    """Target and achieved mineral fractions (area in 2D, volume in 3D), percent."""
+    table = assembly.mineral_table
+    return {name: {"target": float(100 * t), "achieved": float(100 * a)}
+            for name, t, a in zip(table.names, table.volume_fraction,
+                                  assembly.volume_fractions(), strict=True)}
+
+
+def specimen_summary(assembly: GrainAssembly, wall_time_s: float | None = None) -> dict[str, Any]:
+    """Scalar description of an assembly, with the summary key names of docs/outputs.md."""
+    mesh = assembly.mesh
+    return {
+        "grainfrac_version": grainfrac.__version__,
+        "seed": assembly.seed,
+        "wall_time_s": wall_time_s,
+        "specimen": mesh.grains.outline.kind,
+        "rock": assembly.recipe.name,
+        **_counts(assembly),
         "n_fluid_nodes": len(mesh.fluid_node_xy),
         "n_pipes": len(mesh.pipe_nodes),
         "min_element_angle_deg": float(mesh.element_min_angles().min()),
-        "volume_percent": {
-            name: {"target": float(100 * t), "achieved": float(100 * a)}
-            for name, t, a in zip(assembly.mineral_table.names,
-                                  assembly.mineral_table.volume_fraction, achieved, strict=True)
-        },
+        "volume_percent": _volume_percent(assembly),
         "contact_fraction_total": contact_type_fractions(assembly),
         "size_distribution": grain_size_distribution(mesh.grains),
     }
@@ -130,8 +141,7 @@ def specimen_summary3d(assembly: GrainAssembly, wall_time_s: float | None = None
 
     mesh = assembly.mesh
     cx = mesh.grains
-    achieved = assembly.volume_fractions()
-    volume = float(mesh.element_volumes().sum())
+    volumes = mesh.element_volumes()
     steps = stable_steps3d(assembly)
     dihedral = mesh.min_dihedral_angles()
     spec_edges = (float(np.min(cx.edge_classes()[1])) * 1e3)
@@ -144,28 +154,18 @@ def specimen_summary3d(assembly: GrainAssembly, wall_time_s: float | None = None
         "size_mm": [float(v) * 1e3 for v in cx.solid.extent],
         "borehole_facets": cx.solid.borehole_facets,
         "rock": assembly.recipe.name,
-        "n_grains": assembly.n_grains,
-        "n_elements": mesh.n_elements,
-        "n_nodes": mesh.n_nodes,
-        "n_contacts": mesh.n_contacts,
-        "n_interfaces": mesh.n_interfaces,
-        "n_fissures": int(assembly.interface_fissure.sum()),
-        "fissure_fraction": float(assembly.interface_fissure.mean()),
+        **_counts(assembly),
         "n_fluid_nodes": mesh.flow.n_nodes,
         "n_pipes": mesh.flow.n_pipes,
-        "volume_relative_error": volume / cx.solid.volume - 1.0,
+        "volume_relative_error": float(volumes.sum()) / cx.solid.volume - 1.0,
         "min_dihedral_angle_deg": float(dihedral.min()),
         "dihedral_p1_deg": float(np.percentile(dihedral, 1)),
         "shortest_edge_mm": spec_edges,
         "edges_breaking_rule": short_edge_report(
             cx, assembly_min_edge(assembly), assembly_max_edge(assembly), mesh.zone_size),
-        "smallest_element_mm3": float(mesh.element_volumes().min()) * 1e9,
+        "smallest_element_mm3": float(volumes.min()) * 1e9,
         "stable_step": steps,
-        "volume_percent": {
-            name: {"target": float(100 * t), "achieved": float(100 * a)}
-            for name, t, a in zip(assembly.mineral_table.names,
-                                  assembly.mineral_table.volume_fraction, achieved, strict=True)
-        },
+        "volume_percent": _volume_percent(assembly),
         "contact_fraction_total": contact_type_fractions(assembly),
         "size_distribution": grain_size_distribution3d(assembly),
     }
