@@ -332,7 +332,10 @@ class Run(Hooks):
         self.out = Path(out)
         self.progress = progress
         self.assembly: GrainAssembly = build_assembly(scenario.specimen_config(), recipe)
-        self.world = World(self.assembly, MechanicsSolver(build_mechanical_model(self.assembly)))
+        numerics = scenario.numerics
+        model = build_mechanical_model(self.assembly, mass_scaling=numerics.mass_scaling)
+        self.world = World(self.assembly, MechanicsSolver(model, damping=numerics.local_damping),
+                           mass_scaling=numerics.mass_scaling)
         self.stages: list[Stage] = from_scenario(scenario, base_dir)
         self.driver = Driver(self.stages, self.world, self)
         self.record = RunRecord()
@@ -516,6 +519,8 @@ class Run(Hooks):
             records["fluid/state"] = asdict(w.coupled.state)
             records["fluid/history"] = _arrays(w.coupled.history)
             records["fluid/coupling"] = {"base_external": w.coupled.base_external}
+            if w.coupled.mouths_open is not None:
+                records["fluid/coupling"]["mouths_open"] = w.coupled.mouths_open
         write_checkpoint(self.checkpoint_path, records)
         write_history(self.out / "history.csv", self.record.history)
         self._last_checkpoint = wallclock.monotonic()
@@ -550,7 +555,7 @@ class Run(Hooks):
         w.injection_start_time = world["injection_start_time"]
         if world["model_kind"] == SCDA:
             self.stage("scda").build_plug(w)
-            w.solver = MechanicsSolver(w.scda_model)
+            w.solver = MechanicsSolver(w.scda_model, damping=self.scenario.numerics.local_damping)
             w.model_kind = SCDA
         s = w.solver
         solver = records["solver"]
@@ -568,7 +573,10 @@ class Run(Hooks):
             # the saved fluid state, loads and contact pressures then replace them.
             w.coupled = couple_fluid(w, self.scenario.fluid)
             w.coupled.state = FluidState(**records["fluid/state"])
-            w.coupled.base_external = records["fluid/coupling"]["base_external"].copy()
+            coupling = records["fluid/coupling"]
+            w.coupled.base_external = coupling["base_external"].copy()
+            if "mouths_open" in coupling:
+                w.coupled.mouths_open = coupling["mouths_open"]
             w.coupled.history = CoupledHistory(
                 **{k: v.tolist() for k, v in records["fluid/history"].items()})
             s.loads.external[...] = loads["external"]

@@ -195,6 +195,11 @@ class FluidSpec(StrictModel):
     well_compressibility_per_GPa: float = Field(
         0.5, gt=0, description="compressibility of the well fluid volume [1/GPa]"
     )
+    well_wall: Literal["wet", "sealed", "flow_knots"] = Field(
+        "wet", description="how the well meets the grain boundaries that end on its wall: "
+        "'wet' (wall contacts take the well pressure from the start), 'sealed' (pressure on "
+        "the wall; a wall contact takes fluid once it cracks), 'flow_knots' (3DEC: fluid "
+        "into the wall contacts only, no pressure on the wall)")
 
     @model_validator(mode="after")
     def _check(self) -> FluidSpec:
@@ -251,6 +256,23 @@ class FluidSpec(StrictModel):
     def well_compressibility(self) -> float:
         """Compressibility of the well fluid volume (1/Pa)."""
         return self.well_compressibility_per_GPa / GPA
+
+
+# --------------------------------------------------------------------------- numerics
+
+
+class NumericsSpec(StrictModel):
+    """Knobs of the explicit mechanics that a converged answer must not hang on.
+
+    ``local_damping`` is the Itasca local (non-viscous) damping coefficient of every
+    stage; ``mass_scaling`` the fraction of the mass that mass scaling adds to keep
+    the step at the grains' own (1: all of it, 0: real masses, a smaller step).
+    """
+
+    local_damping: float = Field(0.8, ge=0, lt=1, description="local damping coefficient")
+    mass_scaling: float = Field(
+        1.0, ge=0, le=1, description="fraction of the mass scaling's added mass kept "
+        "(1: as designed, 0: real masses)")
 
 
 # --------------------------------------------------------------------------- stages
@@ -341,7 +363,9 @@ class InjectStage(StrictModel):
     Ends after ``duration_ms`` or when ``volume_ml`` has been injected,
     whichever comes first (at least one is required), or earlier when
     ``stop_at_boundary`` and a crack made since injection started reaches the
-    specimen's outer boundary (cracks of earlier stages do not count).
+    specimen's outer boundary (cracks of earlier stages do not count), or
+    ``stop_after_breakdown_ms`` after breakdown (for studies of the breakdown
+    pressure alone).
     """
 
     kind: Literal["inject"] = Field("inject", description="selects this stage")
@@ -352,6 +376,9 @@ class InjectStage(StrictModel):
     time_step_ms: float = Field(0.01, gt=0, description="fluid (coupling) time step [ms]")
     stop_at_boundary: bool = Field(
         True, description="stop when a crack made by the injection reaches the boundary")
+    stop_after_breakdown_ms: float | None = Field(
+        None, gt=0, le=MAX_STAGE_MS, description="stop this long after breakdown (the well "
+        "pressure first 5 % below its peak) [ms]; default: run on")
 
     @model_validator(mode="after")
     def _ends(self) -> InjectStage:
@@ -501,6 +528,8 @@ class Scenario(StrictModel):
     fluid: FluidSpec = Field(default_factory=FluidSpec,
                              description="fluid, apertures and permeable sides")
     stages: list[Stage] = Field(min_length=1, description="stages, run in order")
+    numerics: NumericsSpec = Field(default_factory=NumericsSpec,
+                                   description="damping and mass scaling")
     output: OutputSpec = Field(default_factory=OutputSpec,
                                description="snapshot and checkpoint intervals")
 

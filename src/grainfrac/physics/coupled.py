@@ -106,14 +106,14 @@ class HydroMechanicalSolver:
         self.mechanics = mechanics
         # Every pipe, sealed grain interiors included; self.network conducts.
         self._all_pipes = network
-        self.network = self._conducting_network()
         self.fluid = fluid
+        self.network = self._conducting_network()
         self.base_external = mechanics.loads.external.copy()
         self._wall_loop = (flow.borehole_wall_loop(assembly.mesh)
-                           if network.well_unknown >= 0 else None)
+                           if network.wall_pressurised else None)
         self.well_unit_forces = (
             normal_pressure_forces(assembly.mesh, "borehole", 1.0)
-            if network.well_unknown >= 0 else None
+            if network.wall_pressurised else None
         )
         self.state = flow.initial_state(network, self.aperture(), fluid,
                                         well_volume=self.well_void())
@@ -129,7 +129,7 @@ class HydroMechanicalSolver:
         shear_modulus = float(np.average(m.mu, weights=m.element_area))
         self.wall_compliance = (math.pi * mesh.grains.outline.borehole_radius**2
                                 * mesh.thickness / shear_modulus
-                                if network.well_unknown >= 0 else 0.0)
+                                if network.wall_pressurised else 0.0)
         self._wall_nodes = np.zeros(len(mesh.fluid_node_xy), dtype=bool)
         self._wall_nodes[mesh.fluid_node_sets.get("borehole", np.zeros(0, np.int64))] = True
         outline = mesh.grains.outline
@@ -144,9 +144,27 @@ class HydroMechanicalSolver:
         self._apply_pressure()
 
     def _conducting_network(self) -> flow.FlowNetwork:
-        """The network less the pipes of grain-interior faces still bonded."""
-        return flow.conducting(self._all_pipes,
-                               self.mechanics.bonded[:self.assembly.mesh.n_contacts])
+        """The network less the pipes of grain-interior faces still bonded, with the
+        mouths of a sealed wall that have opened (they stay open)."""
+        bonded = self.mechanics.bonded[:self.assembly.mesh.n_contacts]
+        if self._all_pipes.mouths is not None:
+            self._all_pipes = flow.open_mouths(self._all_pipes, self.aperture(), bonded,
+                                               self.fluid)
+        return flow.conducting(self._all_pipes, bonded)
+
+    @property
+    def mouths_open(self) -> np.ndarray | None:
+        """Which of a sealed wall's mouths have opened to the well (None: not sealed)."""
+        mouths = self._all_pipes.mouths
+        return None if mouths is None else mouths.is_open.copy()
+
+    @mouths_open.setter
+    def mouths_open(self, is_open: np.ndarray) -> None:
+        mouths = self._all_pipes.mouths
+        self._all_pipes = replace(self._all_pipes,
+                                  mouths=replace(mouths, is_open=np.asarray(is_open, bool)))
+        self.network = self._conducting_network()
+        self._pores = None
 
     def aperture(self) -> np.ndarray:
         n = self.assembly.mesh.n_contacts
@@ -157,8 +175,8 @@ class HydroMechanicalSolver:
         """Void volume (m3) of the borehole with its wall where the mechanics has moved it
         (None without a well). The fluid fills it, so a wall pushed out by the well
         pressure takes fluid that the pump must supply."""
-        if self.network.well_unknown < 0:
-            return None
+        if not self.network.wall_pressurised:
+            return None if self.network.well_unknown < 0 else 0.0
         return flow.borehole_volume(self.assembly.mesh, self.mechanics.u, self._wall_loop)
 
     @property
@@ -521,8 +539,7 @@ class HydroMechanicalSolver:
         fluid_storage = void / f.bulk_modulus
         springs = np.bincount(local, weights=m.model.contact_area[contact]
                               / m.model.normal_stiffness[contact])
-        ends = net.pipe_unknowns
-        conductance = flow.pipe_conductance(net, aperture, f)
+        ends, conductance = flow.links(net, aperture, f)
         supply = dt * np.bincount(ends.ravel(), weights=np.repeat(conductance, 2),
                                   minlength=net.n_unknowns)[pores]
         sealed = undrained[pores]

@@ -43,6 +43,19 @@ from scipy.sparse.linalg import spsolve
 
 from grainfrac.geometry.meshing import GrainMesh
 
+#: How the borehole wall meets the grain boundaries that end on it
+#: (:func:`build_flow_network`).
+WELL_WALLS = ("wet", "sealed", "flow_knots")
+# Sealed wall: a wall mouth opens to the well once its sub-contacts have cracked or
+# opened by this many initial apertures (a bonded Table 2 contact opens elastically
+# by at most T / kn = 0.05-0.1 um < a0 = 0.2 um, so in practice: once it cracks).
+MOUTH_OPENING_APERTURES = 1.0
+# An open mouth joins a wall fluid node to the well over this fraction of the zone
+# size: the node sits on the wall, so the link has no physical length; at 1 % it is
+# ~100x as conductive as the pipe behind it and the node follows the well, while
+# the pressure matrix stays well conditioned.
+MOUTH_LENGTH_ZONES = 0.01
+
 
 @dataclass(frozen=True)
 class FluidProperties:
@@ -77,10 +90,30 @@ class FlowNetwork:
     fixed: np.ndarray  # (n_unknowns,) bool
     fixed_pressure: np.ndarray  # (n_unknowns,)
     sealed: np.ndarray | None = None  # (c,) sub-contacts that conduct only once broken
+    wall: str = "wet"  # one of WELL_WALLS
+    mouths: Mouths | None = None  # sealed wall: the wall fluid nodes' links to the well
 
     @property
     def contact_unknown(self) -> np.ndarray:
         return self.unknown_of_node[self.mesh.contact_fluid_node]
+
+    @property
+    def wall_pressurised(self) -> bool:
+        """Whether the well's pressure loads the borehole wall and its void stores fluid
+        (not with injection at the flow knots, where fluid lives in the joints only)."""
+        return self.well_unknown >= 0 and self.wall != "flow_knots"
+
+
+@dataclass(frozen=True)
+class Mouths:
+    """Where the grain boundaries meet a sealed borehole wall: one link per wall fluid
+    node between its own unknown and the well's, shut until :func:`open_mouths`."""
+
+    unknown: np.ndarray  # (k,) the wall nodes' unknowns
+    contact_mouth: np.ndarray  # (c,) mouth of each sub-contact, -1 off the wall
+    length: float  # m, see MOUTH_LENGTH_ZONES
+    width: float  # m, the slab thickness
+    is_open: np.ndarray  # (k,) bool
 
 
 def build_flow_network(
@@ -90,6 +123,7 @@ def build_flow_network(
     well: bool = True,
     well_compressibility: float = 1.0 / 2.0e9,
     sealed: np.ndarray | None = None,
+    wall: str = "wet",
 ) -> FlowNetwork:
     """Flow unknowns for a mesh, with every pipe conducting (see :func:`conducting`).
 
@@ -106,23 +140,52 @@ def build_flow_network(
     sealed
         (c,) bool: sub-contacts that carry no flow while bonded (grain interiors
         of breakable grains); None or all False: every sub-contact conducts.
+    wall
+        How the well meets the grain boundaries that end on its wall
+        (``WELL_WALLS``):
+
+        - ``"wet"``: the wall's fluid nodes are merged into the well, so the well
+          pressure acts inside every wall contact from the first step (a permeable
+          wall), and on the wall itself;
+        - ``"sealed"``: the well pressure acts on the wall; each wall fluid node is
+          its own unknown, joined to the well by a mouth that opens once one of
+          its sub-contacts cracks or opens by ``MOUTH_OPENING_APERTURES`` a0
+          (:func:`open_mouths`);
+        - ``"flow_knots"``: 3DEC's injection at the flow knots where the joints
+          meet the wall: the fluid enters the wall contacts (merged, as ``"wet"``)
+          and lives in the joints only: no pressure on the wall, no borehole void.
     """
     if sealed is not None and len(sealed) != mesh.n_contacts:
         raise ValueError(f"sealed has {len(sealed)} entries for {mesh.n_contacts} sub-contacts")
+    if wall not in WELL_WALLS:
+        raise ValueError(f"wall: must be one of {', '.join(WELL_WALLS)} (got {wall!r})")
     n_nodes = len(mesh.fluid_node_xy)
     unknown = np.arange(n_nodes)
     well_unknown = -1
     well_volume = 0.0
-    wall = mesh.fluid_node_sets.get("borehole", np.zeros(0, dtype=np.int64))
+    mouths = None
+    wall_nodes = mesh.fluid_node_sets.get("borehole", np.zeros(0, dtype=np.int64))
     if well and "borehole" in mesh.boundary_faces:
-        keep = np.ones(n_nodes, dtype=bool)
-        keep[wall] = False
-        unknown = np.full(n_nodes, -1)
-        unknown[keep] = np.arange(keep.sum())
-        well_unknown = int(keep.sum())
-        unknown[wall] = well_unknown
-        well_volume = borehole_volume(mesh)
-    n_unknowns = int(unknown.max()) + 1
+        if wall == "sealed":
+            well_unknown = n_nodes
+            unknown = np.arange(n_nodes)
+            mouth_of_node = np.full(n_nodes, -1)
+            mouth_of_node[wall_nodes] = np.arange(len(wall_nodes))
+            mouths = Mouths(unknown=unknown[wall_nodes].copy(),
+                            contact_mouth=mouth_of_node[mesh.contact_fluid_node],
+                            length=MOUTH_LENGTH_ZONES * mesh.zone_size,
+                            width=mesh.thickness,
+                            is_open=np.zeros(len(wall_nodes), dtype=bool))
+        else:
+            keep = np.ones(n_nodes, dtype=bool)
+            keep[wall_nodes] = False
+            unknown = np.full(n_nodes, -1)
+            unknown[keep] = np.arange(keep.sum())
+            well_unknown = int(keep.sum())
+            unknown[wall_nodes] = well_unknown
+        if wall != "flow_knots":
+            well_volume = borehole_volume(mesh)
+    n_unknowns = max(int(unknown.max()), well_unknown) + 1
     pu = unknown[mesh.pipe_nodes]
     distinct = pu[:, 0] != pu[:, 1]
     fixed = np.zeros(n_unknowns, dtype=bool)
@@ -145,7 +208,48 @@ def build_flow_network(
         fixed=fixed,
         fixed_pressure=fixed_pressure,
         sealed=None if sealed is None or not np.any(sealed) else np.asarray(sealed, dtype=bool),
+        wall=wall,
+        mouths=mouths,
     )
+
+
+def open_mouths(network: FlowNetwork, aperture: np.ndarray, bonded: np.ndarray,
+                fluid: FluidProperties) -> FlowNetwork:
+    """``network`` with the sealed wall's mouths opened where a wall sub-contact has
+    cracked or its aperture exceeds a0 by ``MOUTH_OPENING_APERTURES`` a0. An open
+    mouth stays open (a crack that has taken well fluid keeps its path to the well)."""
+    mouths = network.mouths
+    if mouths is None or mouths.is_open.all():
+        return network
+    on_wall = mouths.contact_mouth >= 0
+    opened = ~np.asarray(bonded, dtype=bool) | (
+        aperture >= fluid.initial_aperture * (1.0 + MOUTH_OPENING_APERTURES))
+    now = np.zeros(len(mouths.is_open), dtype=bool)
+    now[mouths.contact_mouth[on_wall & opened]] = True
+    if not (now & ~mouths.is_open).any():
+        return network
+    return replace(network, mouths=replace(mouths, is_open=mouths.is_open | now))
+
+
+def links(network: FlowNetwork, aperture: np.ndarray,
+          fluid: FluidProperties) -> tuple[np.ndarray, np.ndarray]:
+    """Everything that carries flow between two unknowns: their unknown pairs (k, 2) and
+    cubic-law conductances (m3 / (s Pa)): the pipes, and a sealed wall's open mouths
+    (at the mean hydraulic aperture of the mouth's sub-contacts)."""
+    ends, cond = network.pipe_unknowns, pipe_conductance(network, aperture, fluid)
+    mouths = network.mouths
+    if mouths is None or not mouths.is_open.any():
+        return ends, cond
+    on_wall = mouths.contact_mouth >= 0
+    k = len(mouths.is_open)
+    hydraulic = np.minimum(aperture[on_wall], fluid.maximum_aperture)
+    a = (np.bincount(mouths.contact_mouth[on_wall], weights=hydraulic, minlength=k)
+         / np.maximum(np.bincount(mouths.contact_mouth[on_wall], minlength=k), 1))
+    open_ = np.flatnonzero(mouths.is_open)
+    mouth_cond = a[open_]**3 / (12.0 * fluid.viscosity) * mouths.width / mouths.length
+    mouth_ends = np.column_stack((mouths.unknown[open_],
+                                  np.full(len(open_), network.well_unknown)))
+    return np.concatenate((ends, mouth_ends)), np.concatenate((cond, mouth_cond))
 
 
 def conducting(network: FlowNetwork, bonded: np.ndarray | None = None) -> FlowNetwork:
@@ -296,9 +400,9 @@ def _sources(network: FlowNetwork, injection_rate: float) -> np.ndarray:
     return q
 
 
-def _laplacian(network: FlowNetwork, cond: np.ndarray) -> sp.csr_matrix:
+def _laplacian(network: FlowNetwork, ends: np.ndarray, cond: np.ndarray) -> sp.csr_matrix:
     n = network.n_unknowns
-    i, j = network.pipe_unknowns[:, 0], network.pipe_unknowns[:, 1]
+    i, j = ends[:, 0], ends[:, 1]
     return sp.coo_matrix(
         (np.concatenate((cond, cond, -cond, -cond)),
          (np.concatenate((i, j, i, j)), np.concatenate((i, j, j, i)))), shape=(n, n)
@@ -326,7 +430,7 @@ def implicit_step(network: FlowNetwork, state: FluidState, aperture: np.ndarray,
     c = _compressibility(network, fluid)
     v_new = storage_volume(network, aperture, well_volume)
     beta = np.zeros(network.n_unknowns) if compliance is None else compliance
-    lap = _laplacian(network, pipe_conductance(network, aperture, fluid))
+    lap = _laplacian(network, *links(network, aperture, fluid))
     source = _sources(network, injection_rate)
     storage = v_new * c + beta
     rhs = state.content - v_new + beta * state.pressure + dt * source
@@ -422,7 +526,7 @@ def explicit_step(network: FlowNetwork, state: FluidState, aperture: np.ndarray,
     """Forward-Euler reference of :func:`implicit_step` (stable only for tiny ``dt``)."""
     c = _compressibility(network, fluid)
     v_new = storage_volume(network, aperture)
-    lap = _laplacian(network, pipe_conductance(network, aperture, fluid))
+    lap = _laplacian(network, *links(network, aperture, fluid))
     source = _sources(network, injection_rate)
     net_in = -(lap @ state.pressure) + source
     free = ~network.fixed
@@ -440,8 +544,8 @@ def stable_explicit_dt(network: FlowNetwork, aperture: np.ndarray,
     """Largest stable forward-Euler step: min_i V_i c_i / sum_j C_ij."""
     c = _compressibility(network, fluid)
     v = storage_volume(network, aperture)
-    cond = pipe_conductance(network, aperture, fluid)
-    total = np.bincount(network.pipe_unknowns.ravel(), weights=np.repeat(cond, 2),
+    ends, cond = links(network, aperture, fluid)
+    total = np.bincount(ends.ravel(), weights=np.repeat(cond, 2),
                         minlength=network.n_unknowns)
     free = ~network.fixed & (total > 0)
     return float(np.min(v[free] * c[free] / total[free]))

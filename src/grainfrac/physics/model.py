@@ -165,8 +165,26 @@ def nodal_stiffness_bound(
     return k.max(axis=1)
 
 
+def partly_scaled_step(real_mass: np.ndarray, stiffness: np.ndarray, safety: float,
+                       real_dt: float, scaled_dt: float, fraction: float) -> float:
+    """The step (s) at which mass scaling adds ``fraction`` of the mass it adds at
+    ``scaled_dt``: added(dt) = sum max(0, K_i (dt / 2 s)^2 - m_i) grows from 0 at
+    the real-mass step ``real_dt`` to its full value at ``scaled_dt`` (bisection)."""
+
+    def added(dt: float) -> float:
+        return float(np.sum(np.maximum(stiffness * (dt / (2.0 * safety)) ** 2 - real_mass,
+                                       0.0)))
+
+    target = fraction * added(scaled_dt)
+    low, high = real_dt, scaled_dt
+    for _ in range(60):
+        mid = 0.5 * (low + high)
+        low, high = (mid, high) if added(mid) < target else (low, mid)
+    return high
+
+
 def build_mechanical_model(
-    assembly: GrainAssembly, *, mass_scaling: bool = True, safety: float = 0.5
+    assembly: GrainAssembly, *, mass_scaling: bool | float = True, safety: float = 0.5
 ) -> MechanicalModel:
     """Precompute shape gradients, moduli, masses and the stable time step.
 
@@ -175,7 +193,9 @@ def build_mechanical_model(
     assembly
         The assembled grains with materials.
     mass_scaling
-        Scale nodal masses so contact springs do not restrict the step (see module doc).
+        Scale nodal masses so contact springs do not restrict the step (see module doc):
+        True (or 1.0), False (or 0.0: real masses), or the fraction of the added mass
+        to keep (:func:`partly_scaled_step`).
     safety
         Fraction of the critical time step used.
     """
@@ -207,7 +227,7 @@ def model_from_arrays(
     *, x, cells, youngs_modulus, poisson_ratio, density, contact_nodes, contact_frame,
     contact_area, normal_stiffness, shear_stiffness, friction_angle, cohesion,
     tensile_strength, bonded, thickness: float = 1.0, tensile_fracture_energy=None,
-    shear_fracture_energy=None, mass_scaling: bool = True, safety: float = 0.5,
+    shear_fracture_energy=None, mass_scaling: bool | float = True, safety: float = 0.5,
 ) -> MechanicalModel:
     """Build a :class:`MechanicalModel` from per-element and per-contact arrays (SI).
 
@@ -239,15 +259,21 @@ def model_from_arrays(
         n_nodes, cells, grad, measure, lam, mu, contact_nodes, contact_frame, contact_area,
         normal_stiffness, shear_stiffness,
     )
-    if mass_scaling:
+    fraction = float(mass_scaling)
+    if not 0.0 <= fraction <= 1.0:
+        raise ValueError(f"mass_scaling must be a bool or a fraction in [0, 1], got {mass_scaling}")
+    real_dt = safety * 2.0 / np.sqrt(np.max(k_nodes / real_mass))
+    if fraction > 0.0:
         k_grain = np.zeros((n_nodes, dimension))
         np.add.at(k_grain, cells, element_row_sums(grad, measure, lam, mu))
         grain_node_dt = 2.0 / np.sqrt(k_grain.max(axis=1) / real_mass)
         dt = safety * float(np.quantile(grain_node_dt, MASS_SCALING_QUANTILE))
+        if fraction < 1.0:
+            dt = partly_scaled_step(real_mass, k_nodes, safety, real_dt, dt, fraction)
         mass = np.maximum(real_mass, k_nodes * (dt / (2.0 * safety)) ** 2)
     else:
         mass = real_mass
-        dt = safety * 2.0 / np.sqrt(np.max(k_nodes / mass))
+        dt = real_dt
     return MechanicalModel(
         x=x,
         cells=np.ascontiguousarray(cells, dtype=np.int64),
@@ -274,6 +300,6 @@ def model_from_arrays(
         real_mass=real_mass,
         nodal_stiffness=k_nodes,
         dt=float(dt),
-        mass_scaled=mass_scaling,
+        mass_scaled=fraction > 0.0,
         safety=safety,
     )

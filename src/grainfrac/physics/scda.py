@@ -163,10 +163,10 @@ def scda_fill(assembly: GrainAssembly, recipe: ScdaRecipe) -> ScdaFill:
     )
 
 
-def build_scda_model(assembly: GrainAssembly, fill: ScdaFill, *, safety: float = 0.5
-                     ) -> MechanicalModel:
+def build_scda_model(assembly: GrainAssembly, fill: ScdaFill, *, safety: float = 0.5,
+                     mass_scaling: bool | float = True) -> MechanicalModel:
     """The rock model with the plug's blocks, wall contacts and block contacts appended."""
-    rock = build_mechanical_model(assembly, safety=safety)
+    rock = build_mechanical_model(assembly, safety=safety, mass_scaling=mass_scaling)
     mesh = assembly.mesh
     n_rock = mesh.n_nodes
     rec = fill.recipe
@@ -206,6 +206,7 @@ def build_scda_model(assembly: GrainAssembly, fill: ScdaFill, *, safety: float =
         bonded=np.concatenate((rock.initially_bonded,
                                np.ones(len(normal), dtype=bool))),
         safety=safety,
+        mass_scaling=mass_scaling,
     )
 
 

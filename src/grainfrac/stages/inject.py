@@ -13,6 +13,9 @@ from grainfrac.stages.world import World
 
 # A crack this close to an outer side (in zone sizes) means a fracture reached it.
 BOUNDARY_REACH_ZONES = 1.5
+# Breakdown: the well pressure falls this fraction below its peak (the drop that
+# grainfrac.analysis.breakdown calls sustained; tests/test_well_wall.py keeps them equal).
+BREAKDOWN_DROP_FRACTION = 0.05
 
 
 def couple_fluid(world: World, fluid: FluidSpec) -> HydroMechanicalSolver:
@@ -21,7 +24,7 @@ def couple_fluid(world: World, fluid: FluidSpec) -> HydroMechanicalSolver:
     network = flow.build_flow_network(
         assembly.mesh, permeable_sides=fluid.fixed_pressures(), well=True,
         well_compressibility=fluid.well_compressibility,
-        sealed=assembly.contact_intragranular,
+        sealed=assembly.contact_intragranular, wall=fluid.well_wall,
     )
     a0 = assembly.recipe.hydraulic.initial_aperture_m
     return HydroMechanicalSolver(assembly, world.solver, network, fluid.properties(a0))
@@ -52,6 +55,8 @@ class InjectState:
     chunks: int = 0
     done: bool = False
     fraction: float = 0.0
+    peak_well_pressure: float = 0.0  # Pa
+    breakdown_after: float = -1.0  # s from the stage start; -1 before breakdown
 
 
 @dataclass
@@ -84,6 +89,14 @@ class Inject:
         st.done = elapsed >= planned - 1e-12
         if spec.stop_at_boundary and fracture_at_boundary(world):
             st.done = True
+        if spec.stop_after_breakdown_ms is not None:
+            p = world.coupled.well_pressure
+            if st.breakdown_after < 0.0:
+                st.peak_well_pressure = max(st.peak_well_pressure, p)
+                if p < (1.0 - BREAKDOWN_DROP_FRACTION) * st.peak_well_pressure:
+                    st.breakdown_after = elapsed
+            elif elapsed >= st.breakdown_after + spec.stop_after_breakdown_ms * 1e-3:
+                st.done = True
         st.fraction = min(1.0, elapsed / planned)
 
     def finished(self) -> bool:

@@ -41,7 +41,8 @@ class ScdaCharge:
         """The plug's mesh and the rock-plus-plug model, made once per world."""
         if world.scda_fill is None:
             world.scda_fill = scda.scda_fill(world.assembly, self.material)
-            world.scda_model = scda.build_scda_model(world.assembly, world.scda_fill)
+            world.scda_model = scda.build_scda_model(world.assembly, world.scda_fill,
+                                                     mass_scaling=world.mass_scaling)
 
     def begin(self, world: World) -> None:
         self.state.start_time = world.solver.time

@@ -26,7 +26,8 @@ class World:
     """The assembly and the solvers a run's stages share.
 
     ``model_kind`` is ``"rock"`` or ``"scda"`` (plug in the borehole);
-    ``injection_start_time`` (s) is when the fluid was first injected.
+    ``injection_start_time`` (s) is when the fluid was first injected;
+    ``mass_scaling`` is the run's (:class:`grainfrac.scenario.NumericsSpec`).
     """
 
     assembly: GrainAssembly
@@ -37,6 +38,7 @@ class World:
     injection_start_time: float | None = None
     scda_fill: scda.ScdaFill | None = None
     scda_model: MechanicalModel | None = None
+    mass_scaling: float = 1.0  # fraction of the added mass kept (the plug's model too)
 
     def __post_init__(self) -> None:
         self.rock_model = self.solver.model
