@@ -69,3 +69,174 @@ def test_the_3d_estimate_is_close_to_what_meshing_makes():
     assert 17692 <= estimated_elements(config) <= 17692 * 9.0 / 8.0
     assert TETS_PER_ZONE_VOLUME == 9.0
     assert check_size(config) is config  # a small 3D slab passes
+
+
+# --------------------------------------------------------------------------- runs
+
+TINY = {
+    "name": "tiny",
+    "seed": 1,
+    "specimen": {"shape": "slab", "width_mm": 30.0, "height_mm": 30.0,
+                 "borehole_diameter_mm": 6.0},
+    "stages": [{"kind": "equilibrate", "max_steps": 400}],
+}
+INJECT = {"kind": "inject", "rate_ml_per_min": 90.0, "duration_ms": 1.0, "time_step_ms": 0.01}
+
+
+def _scenario(**changes):
+    from grainfrac.io.config import validate
+    from grainfrac.scenario import Scenario
+
+    return validate(Scenario, {**TINY, **changes})
+
+
+def _file(tmp_path, **changes):
+    from grainfrac.scenario import write_resolved
+
+    sc = _scenario(**changes)
+    path = tmp_path / "tiny.toml"
+    write_resolved(path, sc, sc.recipe())
+    return path
+
+
+def _run_cli_until(tmp_path, out, stages, signum, enough, **changes):
+    """``grainfrac run`` in a subprocess, progress lines every chunk on stderr; send
+    ``signum`` once ``enough(lines)``; return (return code, stderr)."""
+    import os
+    import subprocess
+    import sys
+    import time
+
+    path = _file(tmp_path, stages=stages, **changes)
+    env = {**os.environ, "GRAINFRAC_LOG_EVERY_S": "0.001"}
+    proc = subprocess.Popen([sys.executable, "-m", "grainfrac.cli", "run", str(path), "--out",
+                             str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, env=env)
+    seen: list[str] = []
+    try:
+        deadline = time.monotonic() + 600
+        while time.monotonic() < deadline:
+            line = proc.stderr.readline()
+            if not line:
+                break
+            seen.append(line)
+            if enough(seen):
+                proc.send_signal(signum)
+                break
+        rest_out, rest_err = proc.communicate(timeout=600)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    return proc.returncode, "".join(seen) + rest_err + rest_out
+
+
+def _csv(path):
+    import csv
+
+    with open(path, newline="", encoding="utf-8") as f:
+        return list(csv.DictReader(f))
+
+
+def test_history_is_on_disk_while_the_run_goes_and_a_resume_neither_loses_nor_repeats_rows(
+        tmp_path):
+    """Killed (SIGKILL: nothing runs after it) mid-injection, history.csv already holds
+    the injection's rows; the resume drops the rows after its checkpoint and ends with
+    the history of an uninterrupted run, row for row."""
+    import signal
+
+    from grainfrac.io.checkpoint import read_checkpoint
+    from grainfrac.run import checkpoint_path
+    from grainfrac.simulation import run_scenario
+
+    stages = [{"kind": "equilibrate", "max_steps": 400}, INJECT]
+    out = tmp_path / "killed"
+    code, stderr = _run_cli_until(
+        tmp_path, out, stages, signal.SIGKILL,
+        lambda seen: len([s for s in seen if "stage 2/2 inject:" in s]) >= 5)
+    assert code == -signal.SIGKILL, stderr
+    rows = _csv(out / "history.csv")
+    injecting = [r for r in rows if r["stage"] == "inject"]
+    assert len(injecting) >= 4, rows  # flushed at each progress line, not at stage ends
+    assert float(injecting[-1]["injected_volume_ml"]) > 0
+    saved = read_checkpoint(checkpoint_path(out))["solver"]["time"]
+    assert float(rows[-1]["time_s"]) > saved  # rows beyond the checkpoint: dropped on resume
+
+    sc = _scenario(stages=stages)
+    run_scenario(sc, sc.recipe(), out, resume=True)
+    run_scenario(sc, sc.recipe(), tmp_path / "reference")
+    assert (out / "history.csv").read_text() == \
+        (tmp_path / "reference" / "history.csv").read_text()
+
+
+def test_a_checkpoint_is_written_every_n_steps(tmp_path):
+    from grainfrac.io.checkpoint import read_checkpoint
+    from grainfrac.run import checkpoint_path
+    from grainfrac.simulation import run_scenario
+
+    out = tmp_path / "run"
+    seen: list[int] = []
+
+    class Stop(Exception):
+        pass
+
+    def look(p):
+        # Called after each chunk, before the run decides on a checkpoint.
+        if checkpoint_path(out).is_file():
+            seen.append(int(read_checkpoint(checkpoint_path(out))["solver"]["step_count"]))
+        if len(seen) >= 2:
+            raise Stop
+
+    sc = _scenario(stages=[{"kind": "equilibrate", "max_steps": 20_000,
+                            "unbalanced_ratio": 1e-12}],
+                   output={"checkpoint_every_steps": 4000})
+    with pytest.raises(Stop):
+        run_scenario(sc, sc.recipe(), out, progress=look)
+    # Equilibrate chunks are 2000 steps: the first checkpoint after the 2nd chunk, none
+    # after the 3rd (the tiny slab settles after the 4th, a stage end).
+    assert seen == [4000, 4000]
+
+
+@pytest.mark.parametrize("value", ["0", "-5", "2.5", '"often"', "1e12"])
+def test_checkpoint_every_steps_is_validated_with_its_range(tmp_path, value):
+    path = _file(tmp_path)
+    path.write_text(path.read_text().replace(
+        "[output]\n", f"[output]\ncheckpoint_every_steps = {value}\n"))
+    result = runner.invoke(app, ["run", str(path), "--out", str(tmp_path / "out")])
+    lines = [ln for ln in result.output.splitlines() if ln.strip()]
+    assert result.exit_code == 2 and len(lines) == 1, result.output
+    assert "output.checkpoint_every_steps" in lines[0], lines[0]
+    assert not (tmp_path / "out").exists()
+
+
+def test_sigint_in_the_equilibrate_stage_checkpoints_and_prints_the_resume_command(tmp_path):
+    import signal
+
+    from grainfrac.io.checkpoint import read_checkpoint
+    from grainfrac.run import checkpoint_path
+    from grainfrac.simulation import run_scenario
+
+    stages = [{"kind": "equilibrate", "max_steps": 40_000, "unbalanced_ratio": 1e-12},
+              {"kind": "inject", "rate_ml_per_min": 90.0, "duration_ms": 0.03,
+               "time_step_ms": 0.01}]
+    out = tmp_path / "interrupted"
+    # An 80 mm slab settles in some 10 chunks: the signal comes well inside the stage.
+    slab = {"shape": "slab", "width_mm": 80.0, "height_mm": 80.0, "borehole_diameter_mm": 6.0}
+    code, stderr = _run_cli_until(
+        tmp_path, out, stages, signal.SIGINT,
+        lambda seen: any("stage 1/2 equilibrate:" in s for s in seen), specimen=slab)
+    assert code == 130, stderr
+    assert "Traceback" not in stderr
+    assert "interrupted by SIGINT in stage 1 (equilibrate)" in stderr
+    assert f"grainfrac run --resume --out {out}" in stderr
+    records = read_checkpoint(checkpoint_path(out))
+    assert records["driver"]["stage_index"] == 0  # inside the stage, not after it
+    assert 0 < records["stages/0"]["steps"] < 40_000
+    assert not (out / "summary.json").exists()
+
+    sc = _scenario(stages=stages, specimen=slab)
+    resumed = run_scenario(sc, sc.recipe(), out, resume=True)
+    reference = run_scenario(sc, sc.recipe(), tmp_path / "reference")
+    assert {k: v for k, v in resumed.items() if k != "wall_time_s"} == \
+        {k: v for k, v in reference.items() if k != "wall_time_s"}
+    assert (out / "history.csv").read_text() == \
+        (tmp_path / "reference" / "history.csv").read_text()

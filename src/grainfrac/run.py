@@ -32,7 +32,7 @@ from grainfrac.assembly import GrainAssembly, build_assembly
 from grainfrac.errors import CheckpointError, GrainfracError
 from grainfrac.io.checkpoint import read_checkpoint, write_checkpoint
 from grainfrac.io.files import DirectoryBusy, directory_lock, write_json
-from grainfrac.io.results import write_history
+from grainfrac.io.results import append_history, write_history
 from grainfrac.io.snapshots import SnapshotSeries
 from grainfrac.materials import RockRecipe
 from grainfrac.physics.coupled import CoupledHistory
@@ -345,6 +345,9 @@ class Run(Hooks):
         self._last_log = wallclock.monotonic()
         self._stage_wall_start = wallclock.monotonic()
         self._stop: str | None = None
+        # Rows of record.history already in history.csv, and the step of the last checkpoint.
+        self._history_written = 0
+        self._checkpoint_step = 0
 
     def request_stop(self, reason: str) -> None:
         """Stop at the end of the chunk in progress, with a checkpoint (a signal handler
@@ -385,6 +388,7 @@ class Run(Hooks):
             self._maybe_snapshot()
         if wallclock.monotonic() - self._last_log >= self.log_every_s:
             self._log_progress(stage)
+            self.flush_history()
 
     def after_stage(self, stage: Stage) -> None:
         self.record.stage_times.setdefault(stage.kind, [stage.state.start_time,
@@ -401,12 +405,25 @@ class Run(Hooks):
         self._stop_if_asked()
 
     def between_chunks(self) -> None:
-        every = self.scenario.output.checkpoint_every_minutes * 60.0
-        if self._stop is None and wallclock.monotonic() - self._last_checkpoint >= every:
-            self.checkpoint()
-        if self._stop is not None:
+        if self._stop is not None or self.checkpoint_due():
             self.checkpoint()
         self._stop_if_asked()
+
+    def checkpoint_due(self) -> bool:
+        """Whether ``output.checkpoint_every_minutes`` of wall clock or
+        ``output.checkpoint_every_steps`` mechanical steps passed since the last checkpoint."""
+        output = self.scenario.output
+        if wallclock.monotonic() - self._last_checkpoint >= output.checkpoint_every_minutes * 60:
+            return True
+        every = output.checkpoint_every_steps
+        return every is not None and self.solver.step_count - self._checkpoint_step >= every
+
+    def flush_history(self) -> None:
+        """Append the history rows not yet in history.csv to it."""
+        rows = self.record.history[self._history_written:]
+        if rows or not (self.out / "history.csv").is_file():
+            append_history(self.out / "history.csv", rows)
+        self._history_written = len(self.record.history)
 
     def _stop_if_asked(self) -> None:
         # Called where the last checkpoint is the state now: a resume retraces the
@@ -517,8 +534,14 @@ class Run(Hooks):
             records["fluid/history"] = _arrays(w.coupled.history)
             records["fluid/coupling"] = {"base_external": w.coupled.base_external}
         write_checkpoint(self.checkpoint_path, records)
-        write_history(self.out / "history.csv", self.record.history)
+        self.write_history()
         self._last_checkpoint = wallclock.monotonic()
+        self._checkpoint_step = s.step_count
+
+    def write_history(self) -> None:
+        """Rewrite history.csv (atomically) with every row of the run so far."""
+        write_history(self.out / "history.csv", self.record.history)
+        self._history_written = len(self.record.history)
 
     def restore(self) -> None:
         """Continue from the run directory's checkpoint."""
@@ -574,3 +597,6 @@ class Run(Hooks):
             s.loads.external[...] = loads["external"]
             s.contact_pressure[...] = solver["contact_pressure"]
         self.snapshots.entries = list(self.record.snapshots)
+        self._checkpoint_step = s.step_count
+        # Rows flushed after the checkpoint are dropped: the resumed run makes them again.
+        self.write_history()

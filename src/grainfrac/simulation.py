@@ -18,7 +18,7 @@ import numpy as np
 import grainfrac
 from grainfrac.analysis import breakdown_summary, contact_fractions, fracture_summary
 from grainfrac.io.files import write_json
-from grainfrac.io.results import write_cracks, write_history
+from grainfrac.io.results import write_cracks
 from grainfrac.materials import RockRecipe
 from grainfrac.physics.cracks import MODE_NAMES, crack_catalogue
 from grainfrac.run import Progress, Run, run_directory, run_log, stop_on_signals
@@ -222,7 +222,7 @@ def run_scenario(scenario: Scenario, recipe: RockRecipe, out: str | Path, *,
             with stop_on_signals(run.request_stop):
                 run.execute()
         finally:
-            write_history(out / "history.csv", run.record.history)
+            run.write_history()
             cat = _rock_crack_catalogue(run)
             write_cracks(out / "cracks.csv", cat.rows(run.assembly.pair_names))
         summary = summarise(run, run.wall_time())

@@ -17,5 +17,23 @@ def write_history(path: str | Path, rows: list[dict[str, Any]]) -> Path:
     return write_csv(path, rows, HISTORY_COLUMNS)
 
 
+def append_history(path: str | Path, rows: list[dict[str, Any]]) -> Path:
+    """Append ``rows`` to history.csv (with its header if the file is new) and flush
+    them to the disk: a run killed later keeps them."""
+    import csv
+    import os
+
+    path = Path(path)
+    new = not path.is_file()
+    with open(path, "a", encoding="utf-8", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=HISTORY_COLUMNS, lineterminator="\n")
+        if new:
+            writer.writeheader()
+        writer.writerows(rows)
+        f.flush()
+        os.fsync(f.fileno())
+    return path
+
+
 def write_cracks(path: str | Path, rows: list[dict[str, Any]]) -> Path:
     return write_csv(path, rows, CRACK_COLUMNS)
