@@ -240,3 +240,83 @@ def test_sigint_in_the_equilibrate_stage_checkpoints_and_prints_the_resume_comma
         {k: v for k, v in reference.items() if k != "wall_time_s"}
     assert (out / "history.csv").read_text() == \
         (tmp_path / "reference" / "history.csv").read_text()
+
+
+# --------------------------------------------------------------------------- times, cracks
+
+BREAKDOWN = [{"kind": "equilibrate", "max_steps": 400},
+             {"kind": "inject", "rate_ml_per_min": 150.0, "duration_ms": 3.0,
+              "time_step_ms": 0.01}]
+
+
+@pytest.fixture(scope="module")
+def broken(tmp_path_factory):
+    """A tiny slab injected to breakdown (about 20 cracks)."""
+    from grainfrac.simulation import run_scenario
+
+    out = tmp_path_factory.mktemp("broken") / "run"
+    sc = _scenario(stages=BREAKDOWN)
+    return out, run_scenario(sc, sc.recipe(), out)
+
+
+def test_summary_times_say_which_clock_they_read(broken):
+    out, summary = broken
+    start = summary["stage_times_s"]["inject"][0]
+    assert summary["injection_start_time_s"] == start > 0
+    assert summary["breakdown_time_s"] is not None
+    # breakdown_time_s keeps its meaning: from the start of injection.
+    assert summary["breakdown_time_from_injection_s"] == summary["breakdown_time_s"]
+    assert summary["breakdown_time_absolute_s"] == pytest.approx(
+        start + summary["breakdown_time_s"], rel=1e-12)
+    history = _csv(out / "history.csv")
+    by_stage = {kind: t0 for kind, (t0, _) in summary["stage_times_s"].items()}
+    for row in history:
+        assert float(row["time_from_stage_start_s"]) == pytest.approx(
+            float(row["time_s"]) - by_stage[row["stage"]], abs=1e-15)
+
+
+def test_cracks_csv_names_contact_stage_orientation_length_and_grains(broken):
+    import meshio
+    import numpy as np
+
+    from grainfrac.io.results import CRACK_COLUMNS
+
+    out, summary = broken
+    text = (out / "cracks.csv").read_text()
+    header = text.splitlines()[0].split(",")
+    assert header[:6] == ["time_s", "x_mm", "y_mm", "mode", "contact_type", "energy_J"]
+    assert header == CRACK_COLUMNS
+    rows = _csv(out / "cracks.csv")
+    assert len(rows) == summary["n_cracks"] > 0
+    contacts = meshio.read(sorted((out / "snapshots").glob("contacts_*.vtu"))[-1])
+    normals = contacts.cell_data["normal"][0]
+    lengths = contacts.cell_data["area_m2"][0] / 10e-3  # the slab is 10 mm thick
+    inject_start = summary["stage_times_s"]["inject"][0]
+    for row in rows:
+        c = int(row["contact"])
+        assert row["stage"] == "inject"  # equilibrate holds the bonds elastic
+        assert float(row["time_from_stage_start_s"]) == pytest.approx(
+            float(row["time_s"]) - inject_start, abs=1e-15)
+        n = np.array([float(row["normal_x"]), float(row["normal_y"])])
+        assert np.allclose(n, normals[c, :2])
+        angle = float(row["normal_angle_deg"])
+        assert 0 <= angle < 180
+        assert np.isclose(np.tan(np.radians(angle)) * n[0], n[1], atol=1e-9) or \
+            abs(n[0]) < 1e-9
+        assert float(row["length_mm"]) == pytest.approx(lengths[c] * 1e3, rel=1e-9)
+        assert int(row["grain_a"]) != int(row["grain_b"])
+        assert float(row["energy_J"]) > 0
+
+
+def test_the_stage_of_a_crack_is_the_last_stage_begun_before_it():
+    import numpy as np
+
+    from grainfrac.physics.cracks import CrackCatalogue
+
+    cat = CrackCatalogue(contact=np.arange(4), time=np.array([0.5, 1.0, 1.0 + 1e-9, 3.0]),
+                         x=np.zeros(4), y=np.zeros(4), mode=np.ones(4, dtype=int),
+                         pair=np.zeros(4, dtype=int), energy=np.zeros(4))
+    stage, start = cat.stage_of([("equilibrate", 0.0), ("scda", 1.0), ("inject", 2.0)])
+    # A crack is timed at the end of its step: one at a stage's start time is the earlier's.
+    assert stage == ["equilibrate", "equilibrate", "scda", "inject"]
+    assert list(start) == [0.0, 0.0, 1.0, 2.0]

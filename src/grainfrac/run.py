@@ -366,6 +366,12 @@ class Run(Hooks):
         """The first stage of ``kind`` (None if the scenario has none)."""
         return next((s for s in self.stages if s.kind == kind), None)
 
+    def stage_starts(self) -> list[tuple[str, float]]:
+        """Kind and absolute start time (s) of every stage begun so far, in order."""
+        st = self.driver.state
+        begun = st.stage_index + (1 if st.begun else 0)
+        return [(stage.kind, stage.state.start_time) for stage in self.stages[:begun]]
+
     def wall_time(self) -> float:
         """Seconds this run has computed, over every session that resumed it."""
         return self.record.wall_time_s + wallclock.monotonic() - self._started
@@ -484,6 +490,7 @@ class Run(Hooks):
             "n_shear": int(np.count_nonzero(modes == 2)),
             "tangential_stress_near_well_MPa": self.tangential_stress_near_well() / 1e6,
             "step": s.step_count,
+            "time_from_stage_start_s": s.time - stage.state.start_time,
         }
         self.record.history.append(row)
         if self.progress is not None:

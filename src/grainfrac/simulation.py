@@ -63,7 +63,9 @@ def legend(run: Run) -> dict[str, Any]:
         },
         "units": "SI in files (m, Pa, s, J) unless the name says otherwise (_MPa, _mm, _ml)",
         "times": "absolute simulated time (s) from the start of the run, except "
-                 "breakdown_time_s, which counts from the start of injection",
+                 "breakdown_time_s and breakdown_time_from_injection_s (from the start of "
+                 "injection, injection_start_time_s) and the time_from_stage_start_s "
+                 "columns (from the start of the row's stage)",
     }
 
 
@@ -90,6 +92,9 @@ def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
         "stage_times_s": run.record.stage_times,
         "breakdown_pressure_MPa": None,
         "breakdown_time_s": None,
+        "breakdown_time_from_injection_s": None,
+        "breakdown_time_absolute_s": None,
+        "injection_start_time_s": None,
         "breakdown_drop_1ms_fraction": None,
         "peak_well_pressure_MPa": None,
         "peak_expansive_pressure_MPa": None,
@@ -100,6 +105,12 @@ def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
         h = coupled.history
         t0 = run.world.injection_start_time or 0.0
         out.update(breakdown_summary(np.asarray(h.time) - t0, np.asarray(h.well_pressure)))
+        # breakdown_time_s keeps its meaning (from the start of injection); the two
+        # explicit keys say which clock they read.
+        out["injection_start_time_s"] = t0
+        if out["breakdown_time_s"] is not None:
+            out["breakdown_time_from_injection_s"] = out["breakdown_time_s"]
+            out["breakdown_time_absolute_s"] = t0 + out["breakdown_time_s"]
         out["peak_well_pressure_MPa"] = float(np.max(h.well_pressure)) / 1e6
         out["injected_volume_ml"] = coupled.state.injected * 1e6
     charge = run.stage("scda")
@@ -224,7 +235,8 @@ def run_scenario(scenario: Scenario, recipe: RockRecipe, out: str | Path, *,
         finally:
             run.write_history()
             cat = _rock_crack_catalogue(run)
-            write_cracks(out / "cracks.csv", cat.rows(run.assembly.pair_names))
+            write_cracks(out / "cracks.csv", cat.rows(run.assembly.pair_names,
+                                                      run.stage_starts()))
         summary = summarise(run, run.wall_time())
         _plot_run(run, cat, out / "figures")
         write_json(out / "summary.json", summary)
