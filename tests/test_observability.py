@@ -320,3 +320,132 @@ def test_the_stage_of_a_crack_is_the_last_stage_begun_before_it():
     # A crack is timed at the end of its step: one at a stage's start time is the earlier's.
     assert stage == ["equilibrate", "equilibrate", "scda", "inject"]
     assert list(start) == [0.0, 0.0, 1.0, 2.0]
+
+
+# --------------------------------------------------------------------------- snapshots
+
+
+def _metadata(mesh):
+    import json
+
+    import numpy as np
+
+    from grainfrac.io.vtk import METADATA_FIELD
+
+    return json.loads(bytes(np.asarray(mesh.field_data[METADATA_FIELD], dtype=np.uint8)
+                            ).decode("utf-8"))
+
+
+@pytest.fixture(scope="module")
+def charged(tmp_path_factory):
+    """A tiny slab charged with SCDA for 0.3 ms, then drilled out."""
+    from grainfrac.simulation import run_scenario
+
+    out = tmp_path_factory.mktemp("charged") / "run"
+    sc = _scenario(stages=[{"kind": "equilibrate", "max_steps": 400},
+                           {"kind": "scda", "max_duration_ms": 0.3}, {"kind": "drill_out"}],
+                   output={"snapshot_every_ms": 0.1})
+    return out, run_scenario(sc, sc.recipe(), out)
+
+
+def test_snapshots_of_the_scda_stage_hold_the_plug_with_its_pressure(charged):
+    import xml.etree.ElementTree as ET
+
+    import meshio
+    import numpy as np
+
+    out, summary = charged
+    snaps = out / "snapshots"
+    pvd = ET.parse(snaps / "series.pvd").getroot()
+    plug_sets = [d for d in pvd.iter("DataSet") if d.get("part") == "2"]
+    assert plug_sets, "no plug in series.pvd"
+    start, end = summary["stage_times_s"]["scda"]
+    for d in plug_sets:
+        assert d.get("file").startswith("scda_")
+        assert start < float(d.get("timestep")) <= end + 1e-12
+        assert (snaps / d.get("file")).is_file()
+    # After the drill-out no snapshot has a plug.
+    last = max(pvd.iter("DataSet"), key=lambda d: float(d.get("timestep")))
+    assert not (snaps / last.get("file").replace("grains_", "scda_")).exists()
+    plug = meshio.read(snaps / plug_sets[-1].get("file"))
+    assert plug.cells[0].type == "triangle" and len(plug.cells[0].data) > 0
+    wall = plug.cell_data["expansive_pressure_Pa"][0]
+    assert np.all(wall == wall[0]) and wall[0] > 0  # compression positive
+    assert summary["peak_expansive_pressure_MPa"] * 1e6 >= wall[0]
+    assert np.mean(plug.cell_data["pressure_Pa"][0]) > 0  # the agent is compressed
+    assert _metadata(plug)["sign_convention"] == "compression positive"
+
+
+def test_every_vtu_carries_the_code_tables_of_legend_json(charged, tmp_path):
+    import json
+
+    import meshio
+
+    from grainfrac.assembly import build_assembly
+    from grainfrac.io.vtk import write_assembly
+    from grainfrac.physics.codes import code_tables
+
+    out, _ = charged
+    legend = json.loads((out / "legend.json").read_text())
+    files = sorted((out / "snapshots").glob("*.vtu"))
+    assert any(f.name.startswith("scda_") for f in files)
+    for path in files:
+        meta = _metadata(meshio.read(path))
+        assert meta["codes"] == legend["codes"], path.name
+        assert meta["sign_conventions"] == legend["sign_conventions"]
+    assert set(legend["codes"]) == {"mineral", "contact_type", "mode", "failed", "fissure"}
+    # grainfrac specimen's files carry them too.
+    sc = _scenario()
+    assembly = build_assembly(sc.specimen_config(), sc.recipe())
+    for path in write_assembly(assembly, tmp_path):
+        assert _metadata(meshio.read(path))["codes"] == code_tables(assembly)
+
+
+def test_one_sign_convention_in_files_summary_and_figures(tmp_path, monkeypatch):
+    """A slab compressed by the in-situ stress (2.5 and 5 MPa) reads compressed, with a
+    positive sign, in every output: grain stress and contact normal stress in the
+    snapshots, the hoop stress in history.csv, legend.json, the snapshots' metadata,
+    summary.json and the stress and pressure labels of the figures as drawn."""
+    import json
+
+    import matplotlib.figure
+    import meshio
+    import numpy as np
+
+    from grainfrac.simulation import run_scenario
+
+    labels: dict[str, list[str]] = {}
+    save = matplotlib.figure.Figure.savefig
+
+    def spy(fig, path, *args, **kwargs):
+        labels[fig.axes[0].get_title() + str(len(labels))] = [
+            text for ax in fig.axes for text in (ax.get_xlabel(), ax.get_ylabel()) if text]
+        return save(fig, path, *args, **kwargs)
+
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig", spy)
+    out = tmp_path / "run"
+    sc = _scenario(stages=[{"kind": "equilibrate", "max_steps": 4000},
+                           {"kind": "inject", "rate_ml_per_min": 90.0, "duration_ms": 0.02,
+                            "time_step_ms": 0.01}])
+    summary = run_scenario(sc, sc.recipe(), out)
+    convention = "compression positive"
+    assert summary["sign_convention"] == convention
+    assert json.loads((out / "legend.json").read_text())["sign_convention"] == convention
+    grains = meshio.read(sorted((out / "snapshots").glob("grains_*.vtu"))[-1])
+    contacts = meshio.read(sorted((out / "snapshots").glob("contacts_*.vtu"))[-1])
+    assert "stress_Pa" not in grains.cell_data  # renamed with its sign: no silent flip
+    stress = grains.cell_data["stress_compression_positive_Pa"][0]
+    area = np.ones(len(stress))
+    assert np.average(stress[:, 0], weights=area) > 1e6  # sigma_x 2.5 MPa
+    assert np.average(stress[:, 1], weights=area) > 2e6  # sigma_y 5 MPa
+    assert np.median(contacts.cell_data["normal_stress_Pa"][0]) > 0
+    for mesh in (grains, contacts):
+        assert _metadata(mesh)["sign_convention"] == convention
+    hoop = [float(r["tangential_stress_near_well_MPa"]) for r in _csv(out / "history.csv")]
+    assert hoop[-1] > 0
+    stress_labels = [t for texts in labels.values() for t in texts
+                     if "stress" in t or "pressure" in t]
+    assert any("principal stress" in t for t in stress_labels), labels
+    assert any("well pressure" in t for t in stress_labels), labels
+    for text in stress_labels:
+        assert "compression +" in text, text

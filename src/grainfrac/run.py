@@ -33,7 +33,7 @@ from grainfrac.errors import CheckpointError, GrainfracError
 from grainfrac.io.checkpoint import read_checkpoint, write_checkpoint
 from grainfrac.io.files import DirectoryBusy, directory_lock, write_json
 from grainfrac.io.results import append_history, write_history
-from grainfrac.io.snapshots import SnapshotSeries
+from grainfrac.io.snapshots import PlugState, SnapshotSeries
 from grainfrac.materials import RockRecipe
 from grainfrac.physics.coupled import CoupledHistory
 from grainfrac.physics.fields import ring_mean_tangential_stress
@@ -511,8 +511,14 @@ class Run(Hooks):
         if w.coupled is not None:
             pressure = s.contact_pressure[:c]
             aperture = w.coupled.aperture()
+        plug = None
+        if w.model_kind == SCDA:
+            fill = w.scda_fill
+            plug = PlugState(fill.node_xy, fill.element_nodes, s.u[n:], s.stress[m:],
+                             w.expansive_pressure())
         self.snapshots.write(self.assembly, s.time, s.u[:n], s.stress[:m], s.sigma_n[:c],
-                             s.tau[:c, 0], s.status[:c], pressure=pressure, aperture=aperture)
+                             s.tau[:c, 0], s.status[:c], pressure=pressure, aperture=aperture,
+                             plug=plug)
         self.record.snapshots = list(self.snapshots.entries)
 
     # -- checkpoints --------------------------------------------------------------------

@@ -20,7 +20,8 @@ from grainfrac.analysis import breakdown_summary, contact_fractions, fracture_su
 from grainfrac.io.files import write_json
 from grainfrac.io.results import write_cracks
 from grainfrac.materials import RockRecipe
-from grainfrac.physics.cracks import MODE_NAMES, crack_catalogue
+from grainfrac.physics.codes import SIGN_CONVENTION, SIGN_CONVENTIONS, code_tables
+from grainfrac.physics.cracks import crack_catalogue
 from grainfrac.run import Progress, Run, run_directory, run_log, stop_on_signals
 from grainfrac.scenario import Scenario, write_resolved
 from grainfrac.viz.fields import (
@@ -36,16 +37,10 @@ log = logging.getLogger(__name__)
 
 def legend(run: Run) -> dict[str, Any]:
     """``legend.json``: the names of the integer codes in the run's files and the sign
-    conventions of its quantities."""
-    a = run.assembly
+    conventions of its quantities (:mod:`grainfrac.physics.codes`, the tables every
+    snapshot carries as field data too)."""
     return {
-        "codes": {
-            "mineral": {str(i): name for i, name in enumerate(a.mineral_table.names)},
-            "contact_type": {str(i): name for i, name in enumerate(a.pair_names)},
-            "mode": {"0": "intact", **{str(k): v for k, v in MODE_NAMES.items()}},
-            "failed": {"0": "intact", "1": "broken (tensile or shear)"},
-            "fissure": {"0": "bonded grain boundary", "1": "pre-existing fissure"},
-        },
+        "codes": code_tables(run.assembly),
         "where": {
             "mineral": "grains*.vtu, grains.vtu (cell data)",
             "contact_type": "contacts.vtu (cell data); cracks.csv and history by name",
@@ -53,14 +48,8 @@ def legend(run: Run) -> dict[str, Any]:
             "failed": "contacts*.vtu (cell data)",
             "fissure": "contacts.vtu (cell data)",
         },
-        "sign_conventions": {
-            "grain stress (stress_Pa)": "tension positive",
-            "contact normal stress (normal_stress_Pa)": "compression positive",
-            "contact opening (opening_m)": "opening positive",
-            "in-situ stresses (config.toml stress)": "compressive magnitudes, positive",
-            "tangential_stress_near_well_MPa (history.csv)": "compression positive",
-            "fluid pressure": "positive",
-        },
+        "sign_convention": SIGN_CONVENTION,
+        "sign_conventions": SIGN_CONVENTIONS,
         "units": "SI in files (m, Pa, s, J) unless the name says otherwise (_MPa, _mm, _ml)",
         "times": "absolute simulated time (s) from the start of the run, except "
                  "breakdown_time_s and breakdown_time_from_injection_s (from the start of "
@@ -85,6 +74,7 @@ def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
         "scenario": run.scenario.name,
         "seed": run.scenario.seed,
         "wall_time_s": wall_time_s,
+        "sign_convention": SIGN_CONVENTION,
         "n_grains": a.n_grains,
         "n_elements": a.mesh.n_elements,
         "n_contacts": a.mesh.n_contacts,

@@ -7,9 +7,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from grainfrac.assembly import GrainAssembly
+from grainfrac.physics.codes import MODE_NAMES
 from grainfrac.physics.kernels import SHEAR, TENSILE
 
-MODE_NAMES = {TENSILE: "tensile", SHEAR: "shear"}
+__all__ = ["MODE_NAMES", "CrackCatalogue", "crack_catalogue"]
 
 
 @dataclass(frozen=True)
