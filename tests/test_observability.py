@@ -449,3 +449,31 @@ def test_one_sign_convention_in_files_summary_and_figures(tmp_path, monkeypatch)
     assert any("well pressure" in t for t in stress_labels), labels
     for text in stress_labels:
         assert "compression +" in text, text
+
+
+# --------------------------------------------------------------------------- progress bar
+
+
+def test_the_progress_bar_shows_the_stages_simulated_time_of_its_plan_and_an_eta(tmp_path):
+    import io
+
+    from rich.console import Console
+
+    from grainfrac.run import Progress
+    from grainfrac.runner import _fields, run_with_progress
+
+    fields = _fields(Progress(1, "inject", 2, 0.0031, 0.25, 3, 4e6, 0.0,
+                              stage_time_s=0.0005, stage_planned_s=0.002, eta_s=12.4))
+    assert fields["stage_time"] == "stage 0.500/2.000 ms" and fields["eta"] == "12 s"
+    assert fields["completed"] == 1.25
+    fields = _fields(Progress(0, "equilibrate", 2, 0.0001, 0.4, 0, 0.0, 0.0))
+    assert fields["stage_time"] == "stage  40 % of max_steps" and fields["eta"] == "-"
+
+    sc_path = _file(tmp_path, stages=[{"kind": "equilibrate", "max_steps": 400},
+                                      {"kind": "inject", "rate_ml_per_min": 90.0,
+                                       "duration_ms": 0.05, "time_step_ms": 0.01}])
+    buffer = io.StringIO()
+    console = Console(file=buffer, force_terminal=True, width=200, color_system=None)
+    run_with_progress(sc_path, tmp_path / "run", console=console)
+    text = buffer.getvalue()
+    assert "2/2 inject" in text and "/0.050 ms" in text and "ETA" in text, text[-2000:]

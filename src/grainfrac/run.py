@@ -246,6 +246,12 @@ class Progress:
     n_cracks: int
     well_pressure_Pa: float
     expansive_pressure_Pa: float
+    # Simulated time since the stage started (s), the stage's planned duration (s; None
+    # where a stage has none: equilibrate, drill_out) and the ETA of the stage (wall s,
+    # from the wall time per fraction so far; None until the stage has advanced).
+    stage_time_s: float = 0.0
+    stage_planned_s: float | None = None
+    eta_s: float | None = None
 
 
 @dataclass
@@ -258,6 +264,18 @@ class RunRecord:
     next_snapshot_time: float = 0.0
     stage_times: dict[str, list[float]] = field(default_factory=dict)
     wall_time_s: float = 0.0
+
+
+def planned_duration(stage: Stage) -> float | None:
+    """The simulated time (s) a stage is planned to last: an injection's duration (or
+    volume / rate), SCDA charging's time limit; None for stages that end on a state
+    (equilibrate, drill_out)."""
+    spec = getattr(stage, "spec", None)
+    if stage.kind == "inject":
+        return spec.planned_duration_s
+    if stage.kind == "scda":
+        return spec.max_duration_ms * 1e-3
+    return None
 
 
 def _arrays(obj: Any) -> dict[str, np.ndarray]:
@@ -494,9 +512,19 @@ class Run(Hooks):
         }
         self.record.history.append(row)
         if self.progress is not None:
+            fraction = stage.fraction()
             self.progress(Progress(self.driver.state.stage_index, stage.kind, len(self.stages),
-                                   s.time, stage.fraction(), row["n_cracks"],
-                                   w.well_pressure(), w.expansive_pressure()))
+                                   s.time, fraction, row["n_cracks"],
+                                   w.well_pressure(), w.expansive_pressure(),
+                                   stage_time_s=row["time_from_stage_start_s"],
+                                   stage_planned_s=planned_duration(stage),
+                                   eta_s=self._eta(fraction)))
+
+    def _eta(self, fraction: float) -> float | None:
+        # Wall seconds left in the stage at the wall rate so far (None at 0 or 1).
+        if not 0 < fraction < 1:
+            return None
+        return (wallclock.monotonic() - self._stage_wall_start) * (1 - fraction) / fraction
 
     def _maybe_snapshot(self, force: bool = False) -> None:
         every = self.scenario.output.snapshot_every_ms * 1e-3
