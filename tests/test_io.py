@@ -52,7 +52,7 @@ def test_snapshot_series(ucs, tmp_path):
                      pressure=pressure, aperture=aperture)
     grains = meshio.read(tmp_path / "snapshots" / "grains_0001.vtu")
     np.testing.assert_allclose(grains.point_data["displacement_m"][:, :2], u)
-    assert grains.cell_data["stress_Pa"][0].shape == (m, 6)
+    assert grains.cell_data["stress_compression_positive_Pa"][0].shape == (m, 6)
     contacts = meshio.read(tmp_path / "snapshots" / "contacts_0001.vtu")
     np.testing.assert_allclose(contacts.cell_data["opening_m"][0], contact_opening(ucs, u))
     assert contacts.cell_data["failed"][0][:3].tolist() == [1, 1, 1]

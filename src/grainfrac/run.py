@@ -32,8 +32,8 @@ from grainfrac.assembly import GrainAssembly, build_assembly
 from grainfrac.errors import CheckpointError, GrainfracError
 from grainfrac.io.checkpoint import read_checkpoint, write_checkpoint
 from grainfrac.io.files import DirectoryBusy, directory_lock, write_json
-from grainfrac.io.results import write_history
-from grainfrac.io.snapshots import SnapshotSeries
+from grainfrac.io.results import append_history, write_history
+from grainfrac.io.snapshots import PlugState, SnapshotSeries
 from grainfrac.materials import RockRecipe
 from grainfrac.physics.coupled import CoupledHistory
 from grainfrac.physics.fields import ring_mean_tangential_stress
@@ -246,6 +246,12 @@ class Progress:
     n_cracks: int
     well_pressure_Pa: float
     expansive_pressure_Pa: float
+    # Simulated time since the stage started (s), the stage's planned duration (s; None
+    # where a stage has none: equilibrate, drill_out) and the ETA of the stage (wall s,
+    # from the wall time per fraction so far; None until the stage has advanced).
+    stage_time_s: float = 0.0
+    stage_planned_s: float | None = None
+    eta_s: float | None = None
 
 
 @dataclass
@@ -258,6 +264,18 @@ class RunRecord:
     next_snapshot_time: float = 0.0
     stage_times: dict[str, list[float]] = field(default_factory=dict)
     wall_time_s: float = 0.0
+
+
+def planned_duration(stage: Stage) -> float | None:
+    """The simulated time (s) a stage is planned to last: an injection's duration (or
+    volume / rate), SCDA charging's time limit; None for stages that end on a state
+    (equilibrate, drill_out)."""
+    spec = getattr(stage, "spec", None)
+    if stage.kind == "inject":
+        return spec.planned_duration_s
+    if stage.kind == "scda":
+        return spec.max_duration_ms * 1e-3
+    return None
 
 
 def _arrays(obj: Any) -> dict[str, np.ndarray]:
@@ -348,6 +366,9 @@ class Run(Hooks):
         self._last_log = wallclock.monotonic()
         self._stage_wall_start = wallclock.monotonic()
         self._stop: str | None = None
+        # Rows of record.history already in history.csv, and the step of the last checkpoint.
+        self._history_written = 0
+        self._checkpoint_step = 0
 
     def request_stop(self, reason: str) -> None:
         """Stop at the end of the chunk in progress, with a checkpoint (a signal handler
@@ -365,6 +386,12 @@ class Run(Hooks):
     def stage(self, kind: str) -> Stage | None:
         """The first stage of ``kind`` (None if the scenario has none)."""
         return next((s for s in self.stages if s.kind == kind), None)
+
+    def stage_starts(self) -> list[tuple[str, float]]:
+        """Kind and absolute start time (s) of every stage begun so far, in order."""
+        st = self.driver.state
+        begun = st.stage_index + (1 if st.begun else 0)
+        return [(stage.kind, stage.state.start_time) for stage in self.stages[:begun]]
 
     def wall_time(self) -> float:
         """Seconds this run has computed, over every session that resumed it."""
@@ -388,6 +415,7 @@ class Run(Hooks):
             self._maybe_snapshot()
         if wallclock.monotonic() - self._last_log >= self.log_every_s:
             self._log_progress(stage)
+            self.flush_history()
 
     def after_stage(self, stage: Stage) -> None:
         self.record.stage_times.setdefault(stage.kind, [stage.state.start_time,
@@ -404,12 +432,25 @@ class Run(Hooks):
         self._stop_if_asked()
 
     def between_chunks(self) -> None:
-        every = self.scenario.output.checkpoint_every_minutes * 60.0
-        if self._stop is None and wallclock.monotonic() - self._last_checkpoint >= every:
-            self.checkpoint()
-        if self._stop is not None:
+        if self._stop is not None or self.checkpoint_due():
             self.checkpoint()
         self._stop_if_asked()
+
+    def checkpoint_due(self) -> bool:
+        """Whether ``output.checkpoint_every_minutes`` of wall clock or
+        ``output.checkpoint_every_steps`` mechanical steps passed since the last checkpoint."""
+        output = self.scenario.output
+        if wallclock.monotonic() - self._last_checkpoint >= output.checkpoint_every_minutes * 60:
+            return True
+        every = output.checkpoint_every_steps
+        return every is not None and self.solver.step_count - self._checkpoint_step >= every
+
+    def flush_history(self) -> None:
+        """Append the history rows not yet in history.csv to it."""
+        rows = self.record.history[self._history_written:]
+        if rows or not (self.out / "history.csv").is_file():
+            append_history(self.out / "history.csv", rows)
+        self._history_written = len(self.record.history)
 
     def _stop_if_asked(self) -> None:
         # Called where the last checkpoint is the state now: a resume retraces the
@@ -470,12 +511,23 @@ class Run(Hooks):
             "n_shear": int(np.count_nonzero(modes == 2)),
             "tangential_stress_near_well_MPa": self.tangential_stress_near_well() / 1e6,
             "step": s.step_count,
+            "time_from_stage_start_s": s.time - stage.state.start_time,
         }
         self.record.history.append(row)
         if self.progress is not None:
+            fraction = stage.fraction()
             self.progress(Progress(self.driver.state.stage_index, stage.kind, len(self.stages),
-                                   s.time, stage.fraction(), row["n_cracks"],
-                                   w.well_pressure(), w.expansive_pressure()))
+                                   s.time, fraction, row["n_cracks"],
+                                   w.well_pressure(), w.expansive_pressure(),
+                                   stage_time_s=row["time_from_stage_start_s"],
+                                   stage_planned_s=planned_duration(stage),
+                                   eta_s=self._eta(fraction)))
+
+    def _eta(self, fraction: float) -> float | None:
+        # Wall seconds left in the stage at the wall rate so far (None at 0 or 1).
+        if not 0 < fraction < 1:
+            return None
+        return (wallclock.monotonic() - self._stage_wall_start) * (1 - fraction) / fraction
 
     def _maybe_snapshot(self, force: bool = False) -> None:
         every = self.scenario.output.snapshot_every_ms * 1e-3
@@ -490,8 +542,14 @@ class Run(Hooks):
         if w.coupled is not None:
             pressure = s.contact_pressure[:c]
             aperture = w.coupled.aperture()
+        plug = None
+        if w.model_kind == SCDA:
+            fill = w.scda_fill
+            plug = PlugState(fill.node_xy, fill.element_nodes, s.u[n:], s.stress[m:],
+                             w.expansive_pressure())
         self.snapshots.write(self.assembly, s.time, s.u[:n], s.stress[:m], s.sigma_n[:c],
-                             s.tau[:c, 0], s.status[:c], pressure=pressure, aperture=aperture)
+                             s.tau[:c, 0], s.status[:c], pressure=pressure, aperture=aperture,
+                             plug=plug)
         self.record.snapshots = list(self.snapshots.entries)
 
     # -- checkpoints --------------------------------------------------------------------
@@ -522,8 +580,14 @@ class Run(Hooks):
             if w.coupled.mouths_open is not None:
                 records["fluid/coupling"]["mouths_open"] = w.coupled.mouths_open
         write_checkpoint(self.checkpoint_path, records)
-        write_history(self.out / "history.csv", self.record.history)
+        self.write_history()
         self._last_checkpoint = wallclock.monotonic()
+        self._checkpoint_step = s.step_count
+
+    def write_history(self) -> None:
+        """Rewrite history.csv (atomically) with every row of the run so far."""
+        write_history(self.out / "history.csv", self.record.history)
+        self._history_written = len(self.record.history)
 
     def restore(self) -> None:
         """Continue from the run directory's checkpoint."""
@@ -582,3 +646,6 @@ class Run(Hooks):
             s.loads.external[...] = loads["external"]
             s.contact_pressure[...] = solver["contact_pressure"]
         self.snapshots.entries = list(self.record.snapshots)
+        self._checkpoint_step = s.step_count
+        # Rows flushed after the checkpoint are dropped: the resumed run makes them again.
+        self.write_history()

@@ -27,9 +27,11 @@ def _columns():
         TextColumn("[bold]{task.fields[name]:<8}[/]"),
         BarColumn(bar_width=12),
         TextColumn("{task.fields[stage]:<13} {task.fields[time_ms]:6.2f} ms"),
+        TextColumn("{task.fields[stage_time]}"),
         TextColumn("{task.fields[cracks]:4d} cracks"),
         TextColumn("{task.fields[pressure]}"),
         TimeElapsedColumn(),
+        TextColumn("ETA {task.fields[eta]}"),
     )
 
 
@@ -38,9 +40,16 @@ def _fields(p: RunProgress) -> dict[str, Any]:
         pressure = f"SCDA {p.expansive_pressure_Pa / 1e6:5.1f} MPa"
     else:
         pressure = f"well {p.well_pressure_Pa / 1e6:5.2f} MPa"
+    if p.stage_planned_s:
+        # The stage's simulated time against its planned duration.
+        stage_time = f"stage {p.stage_time_s * 1e3:.3f}/{p.stage_planned_s * 1e3:.3f} ms"
+    else:
+        stage_time = f"stage {100 * p.stage_fraction:3.0f} % of max_steps"
+    eta = "-" if p.eta_s is None else f"{p.eta_s:.0f} s"
     return {"stage": f"{p.stage_index + 1}/{p.n_stages} {p.stage_kind}",
             "time_ms": p.time_s * 1e3, "cracks": p.n_cracks, "pressure": pressure,
-            "completed": p.stage_index + p.stage_fraction}
+            "completed": p.stage_index + p.stage_fraction, "stage_time": stage_time,
+            "eta": eta}
 
 
 def run_with_progress(scenario_path: Path | None, out: Path, *, seed: int | None = None,
@@ -86,7 +95,7 @@ def run_with_progress(scenario_path: Path | None, out: Path, *, seed: int | None
     # bad input is one line on its own.
     bar = Progress(*_columns(), console=console, transient=False)
     task = bar.add_task("run", total=len(scenario.stages), name=scenario.name,
-                        stage="", time_ms=0.0, cracks=0, pressure="")
+                        stage="", time_ms=0.0, cracks=0, pressure="", stage_time="", eta="-")
 
     def show(p: RunProgress) -> None:
         if not bar.live.is_started:
@@ -143,7 +152,8 @@ def run_demo(out: Path, *, seed: int = 0, console: Console | None = None,
     with mp.Manager() as manager, Progress(*_columns(), console=console) as bar:
         events = manager.Queue()
         tasks = {name: bar.add_task(name, total=len(sc.stages), name=name, stage="",
-                                    time_ms=0.0, cracks=0, pressure="")
+                                    time_ms=0.0, cracks=0, pressure="", stage_time="",
+                                    eta="-")
                  for name, sc in scenarios.items()}
         with ProcessPoolExecutor(max_workers=workers,
                                  mp_context=mp.get_context("spawn")) as pool:

@@ -81,6 +81,14 @@ ELEMENTS_PER_ZONE_AREA = 2.25
 # The assembly and mechanical model took 1.2-2.0 kB of memory per element (measured
 # at those two sizes), so this is 6-10 GB before the run's own arrays.
 MAX_ELEMENTS = 5_000_000
+# 3D: tetrahedra per zone volume (zone_size_mm cubed), measured 8.6 (30 x 30 x 20 mm slab,
+# 10 mm borehole, 2 mm zones, 17692 tets), 8.0 (the same at 1.5 mm, 38741 tets) and 7.8
+# (40 x 40 x 20 mm, no borehole, 2 mm, 31223 tets); 9 bounds them.
+TETS_PER_ZONE_VOLUME = 9.0
+# 3D meshing is done grain by grain in Python (about 15000 tets a second here) and a
+# tetrahedron carries more state than a triangle (4 nodes of 3 components): 2e6 tets
+# are some minutes of meshing and a few GB before the run's own arrays.
+MAX_ELEMENTS_3D = 2_000_000
 # Simulated time of one stage: 10 s is 7e7 mechanical steps of the default slab
 # (1.394e-7 s each); the paper's stages last 60 ms at most.
 MAX_STAGE_MS = 10_000.0
@@ -437,11 +445,20 @@ BOREHOLE_STAGES = ("scda", "drill_out", "inject")
 # --------------------------------------------------------------------------- output
 
 
+# More steps than any stage's limit allows (MAX_STAGE_MS at the default slab's step).
+MAX_CHECKPOINT_EVERY_STEPS = 10**9
+
+
 class OutputSpec(StrictModel):
     """What a run writes besides histories and the crack catalogue."""
 
     snapshot_every_ms: float = Field(1.0, gt=0, description="ParaView snapshot interval [ms]")
     checkpoint_every_minutes: float = Field(5.0, gt=0, description="checkpoint interval [min]")
+    checkpoint_every_steps: int | None = Field(
+        None, ge=1, le=MAX_CHECKPOINT_EVERY_STEPS,
+        description="also checkpoint every N mechanical steps (checked between chunks, "
+                    "so at the first chunk end at or after N steps); unset: by wall clock "
+                    f"and at stage ends only; 1 to {MAX_CHECKPOINT_EVERY_STEPS:.0e}")
 
 
 # --------------------------------------------------------------------------- scenario
@@ -473,28 +490,48 @@ def _stage_entry_errors(index: int, stage: Any) -> list[str]:
     return []
 
 
-def check_size(config: SpecimenConfig) -> SpecimenConfig:
-    """Check what can be told of a 2D slab's mesh before building it.
+def estimated_elements(config: SpecimenConfig) -> float | None:
+    """Elements the mesh of ``config`` will have, estimated before building it: triangles
+    of a 2D slab (:data:`ELEMENTS_PER_ZONE_AREA`), tetrahedra of a 3D slab or cube
+    (:data:`TETS_PER_ZONE_VOLUME`); None for the other shapes (small lab specimens)."""
+    spec, zone = config.specimen, config.grains.zone_size_mm
+    if not isinstance(spec, SlabSpec):
+        return None
+    area = spec.width_mm * spec.height_mm - math.pi * spec.borehole_diameter_mm**2 / 4
+    if config.dimension == 3:
+        return TETS_PER_ZONE_VOLUME * area * spec.thickness_mm / zone**3
+    return ELEMENTS_PER_ZONE_AREA * area / zone**2
 
-    Raises :class:`ConfigError` if the estimated element count exceeds
-    :data:`MAX_ELEMENTS` or a borehole is less than :data:`BOREHOLE_MIN_ZONES`
-    zones across (with a hint when the value looks like metres).
+
+def check_size(config: SpecimenConfig) -> SpecimenConfig:
+    """Check what can be told of a slab's mesh (2D, or 3D slab or cube) before building it.
+
+    Raises :class:`ConfigError` if the estimated element count
+    (:func:`estimated_elements`) exceeds :data:`MAX_ELEMENTS` (2D triangles) or
+    :data:`MAX_ELEMENTS_3D` (3D tetrahedra), or a borehole is less than
+    :data:`BOREHOLE_MIN_ZONES` zones across (with a hint when the value looks like metres).
     """
     spec, zone = config.specimen, config.grains.zone_size_mm
     problems: list[tuple[str, str]] = []
-    if isinstance(spec, SlabSpec) and config.dimension == 2:
-        area = spec.width_mm * spec.height_mm - math.pi * spec.borehole_diameter_mm**2 / 4
-        elements = ELEMENTS_PER_ZONE_AREA * area / zone**2
-        if elements > MAX_ELEMENTS:
-            needed = zone * math.sqrt(elements / MAX_ELEMENTS)
-            what = (f"about {elements:.3g} elements for a {spec.width_mm:g} x "
-                    f"{spec.height_mm:g} mm specimen at zone_size_mm = {zone:g}, more than "
-                    f"the {MAX_ELEMENTS:.0e} allowed")
+    elements = estimated_elements(config)
+    if isinstance(spec, SlabSpec) and elements is not None:
+        three = config.dimension == 3
+        limit, power = (MAX_ELEMENTS_3D, 3) if three else (MAX_ELEMENTS, 2)
+        if elements > limit:
+            needed = zone * (elements / limit) ** (1 / power)
+            size = (f"{spec.width_mm:g} x {spec.height_mm:g} x {spec.thickness_mm:g} mm 3D"
+                    if three else f"{spec.width_mm:g} x {spec.height_mm:g} mm")
+            what = (f"about {elements:.3g} {'tetrahedra' if three else 'elements'} for a "
+                    f"{size} specimen at zone_size_mm = {zone:g}, more than the "
+                    f"{limit:.0e} allowed")
             if needed <= config.grains.max_edge_mm:
                 problems.append(("grains.zone_size_mm", f"{what}; raise zone_size_mm to at "
                                  f"least {needed:.3g} or shrink the specimen"))
             else:  # no zone the grains allow would do: the specimen is the mistake
-                side = "width_mm" if spec.width_mm >= spec.height_mm else "height_mm"
+                sides = {"width_mm": spec.width_mm, "height_mm": spec.height_mm}
+                if three:
+                    sides["thickness_mm"] = spec.thickness_mm
+                side = max(sides, key=sides.get)
                 problems.append((f"specimen.{side}", f"{what}; shrink the specimen"))
         d = spec.borehole_diameter_mm
         if 0 < d < BOREHOLE_MIN_ZONES * zone:
@@ -805,6 +842,6 @@ __all__ = [
     "BOREHOLE_STAGES", "DEFAULT_INJECT_DURATION_MS", "DEFAULT_RATE_ML_PER_MIN",
     "SPECIMEN_SIDES", "STAGE_KINDS", "STAGE_MODELS", "DrillOutStage", "EquilibrateStage",
     "FluidSpec", "InSituStress", "InjectStage", "OutputSpec", "Scenario", "ScdaStage", "Stage",
-    "check_size", "default_inject_duration_ms", "hs_only", "hybrid", "load_scenario",
-    "resolved_dict", "write_resolved",
+    "check_size", "default_inject_duration_ms", "estimated_elements", "hs_only", "hybrid",
+    "load_scenario", "resolved_dict", "write_resolved",
 ]

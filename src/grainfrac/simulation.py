@@ -18,9 +18,10 @@ import numpy as np
 import grainfrac
 from grainfrac.analysis import breakdown_summary, contact_fractions, fracture_summary
 from grainfrac.io.files import write_json
-from grainfrac.io.results import write_cracks, write_history
+from grainfrac.io.results import write_cracks
 from grainfrac.materials import RockRecipe
-from grainfrac.physics.cracks import MODE_NAMES, crack_catalogue
+from grainfrac.physics.codes import SIGN_CONVENTION, SIGN_CONVENTIONS, code_tables
+from grainfrac.physics.cracks import crack_catalogue
 from grainfrac.run import Progress, Run, run_directory, run_log, stop_on_signals
 from grainfrac.scenario import Scenario, write_resolved
 from grainfrac.viz.fields import (
@@ -36,16 +37,10 @@ log = logging.getLogger(__name__)
 
 def legend(run: Run) -> dict[str, Any]:
     """``legend.json``: the names of the integer codes in the run's files and the sign
-    conventions of its quantities."""
-    a = run.assembly
+    conventions of its quantities (:mod:`grainfrac.physics.codes`, the tables every
+    snapshot carries as field data too)."""
     return {
-        "codes": {
-            "mineral": {str(i): name for i, name in enumerate(a.mineral_table.names)},
-            "contact_type": {str(i): name for i, name in enumerate(a.pair_names)},
-            "mode": {"0": "intact", **{str(k): v for k, v in MODE_NAMES.items()}},
-            "failed": {"0": "intact", "1": "broken (tensile or shear)"},
-            "fissure": {"0": "bonded grain boundary", "1": "pre-existing fissure"},
-        },
+        "codes": code_tables(run.assembly),
         "where": {
             "mineral": "grains*.vtu, grains.vtu (cell data)",
             "contact_type": "contacts.vtu (cell data); cracks.csv and history by name",
@@ -53,17 +48,13 @@ def legend(run: Run) -> dict[str, Any]:
             "failed": "contacts*.vtu (cell data)",
             "fissure": "contacts.vtu (cell data)",
         },
-        "sign_conventions": {
-            "grain stress (stress_Pa)": "tension positive",
-            "contact normal stress (normal_stress_Pa)": "compression positive",
-            "contact opening (opening_m)": "opening positive",
-            "in-situ stresses (config.toml stress)": "compressive magnitudes, positive",
-            "tangential_stress_near_well_MPa (history.csv)": "compression positive",
-            "fluid pressure": "positive",
-        },
+        "sign_convention": SIGN_CONVENTION,
+        "sign_conventions": SIGN_CONVENTIONS,
         "units": "SI in files (m, Pa, s, J) unless the name says otherwise (_MPa, _mm, _ml)",
         "times": "absolute simulated time (s) from the start of the run, except "
-                 "breakdown_time_s, which counts from the start of injection",
+                 "breakdown_time_s and breakdown_time_from_injection_s (from the start of "
+                 "injection, injection_start_time_s) and the time_from_stage_start_s "
+                 "columns (from the start of the row's stage)",
     }
 
 
@@ -83,6 +74,7 @@ def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
         "scenario": run.scenario.name,
         "seed": run.scenario.seed,
         "wall_time_s": wall_time_s,
+        "sign_convention": SIGN_CONVENTION,
         "n_grains": a.n_grains,
         "n_elements": a.mesh.n_elements,
         "n_contacts": a.mesh.n_contacts,
@@ -90,6 +82,9 @@ def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
         "stage_times_s": run.record.stage_times,
         "breakdown_pressure_MPa": None,
         "breakdown_time_s": None,
+        "breakdown_time_from_injection_s": None,
+        "breakdown_time_absolute_s": None,
+        "injection_start_time_s": None,
         "breakdown_drop_1ms_fraction": None,
         "peak_well_pressure_MPa": None,
         "peak_expansive_pressure_MPa": None,
@@ -100,6 +95,12 @@ def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
         h = coupled.history
         t0 = run.world.injection_start_time or 0.0
         out.update(breakdown_summary(np.asarray(h.time) - t0, np.asarray(h.well_pressure)))
+        # breakdown_time_s keeps its meaning (from the start of injection); the two
+        # explicit keys say which clock they read.
+        out["injection_start_time_s"] = t0
+        if out["breakdown_time_s"] is not None:
+            out["breakdown_time_from_injection_s"] = out["breakdown_time_s"]
+            out["breakdown_time_absolute_s"] = t0 + out["breakdown_time_s"]
         out["peak_well_pressure_MPa"] = float(np.max(h.well_pressure)) / 1e6
         out["injected_volume_ml"] = coupled.state.injected * 1e6
     charge = run.stage("scda")
@@ -222,9 +223,10 @@ def run_scenario(scenario: Scenario, recipe: RockRecipe, out: str | Path, *,
             with stop_on_signals(run.request_stop):
                 run.execute()
         finally:
-            write_history(out / "history.csv", run.record.history)
+            run.write_history()
             cat = _rock_crack_catalogue(run)
-            write_cracks(out / "cracks.csv", cat.rows(run.assembly.pair_names))
+            write_cracks(out / "cracks.csv", cat.rows(run.assembly.pair_names,
+                                                      run.stage_starts()))
         summary = summarise(run, run.wall_time())
         _plot_run(run, cat, out / "figures")
         write_json(out / "summary.json", summary)

@@ -1,10 +1,14 @@
-"""Time series of ParaView snapshots: grains_NNNN.vtu, contacts_NNNN.vtu and series.pvd.
+"""Time series of ParaView snapshots: grains_NNNN.vtu, contacts_NNNN.vtu, scda_NNNN.vtu
+(while an SCDA plug is in the borehole) and series.pvd.
 
-Grains carry point ``displacement_m`` and cell ``stress_Pa`` (xx, yy, zz, xy as
-a symmetric tensor in ParaView's 6-component order), ``grain_id`` and
-``mineral``; contacts carry normal/shear stress, opening, failure and mode
-(and pressure and aperture once fluid is present). The .pvd index is rewritten
-atomically after each snapshot, so it only ever lists complete files.
+Grains carry point ``displacement_m`` and cell ``stress_compression_positive_Pa``
+(xx, yy, zz, xy as a symmetric tensor in ParaView's 6-component order),
+``grain_id`` and ``mineral``; contacts carry normal/shear stress, opening,
+failure and mode (and pressure and aperture once fluid is present); the plug its
+blocks' stress and pressure. Every file carries the code tables and the sign
+convention as field data (:func:`grainfrac.physics.codes.metadata_bytes`). The
+.pvd index is rewritten atomically after each snapshot, so it only ever lists
+complete files.
 """
 
 from __future__ import annotations
@@ -17,9 +21,41 @@ import meshio
 import numpy as np
 
 from grainfrac.assembly import GrainAssembly
-from grainfrac.io.files import write_atomic, write_text
-from grainfrac.io.vtk import _xyz, contacts_mesh, grains_mesh
+from grainfrac.io.files import write_text
+from grainfrac.io.vtk import METADATA_FIELD, _xyz, contacts_mesh, grains_mesh, write_vtu
+from grainfrac.physics.codes import metadata_bytes, to_output_stress
 from grainfrac.physics.kinematics import contact_opening
+
+
+@dataclass(frozen=True)
+class PlugState:
+    """The SCDA plug at a snapshot: its blocks (triangles on their own nodes), their
+    displacement and tension-positive stress as the mechanics keeps them, and the
+    expansive pressure on the borehole wall (Pa, compression positive)."""
+
+    node_xy: np.ndarray  # (3e, 2)
+    element_nodes: np.ndarray  # (e, 3)
+    u: np.ndarray  # (3e, 2)
+    stress: np.ndarray  # (e, 4) sxx, syy, sxy, szz, tension positive
+    expansive_pressure: float
+
+
+def plug_mesh(plug: PlugState) -> meshio.Mesh:
+    """The plug's blocks with displacement, stress and pressure (compression positive)."""
+    stress = to_output_stress(plug.stress)
+    n = len(plug.element_nodes)
+    mesh = meshio.Mesh(_xyz(plug.node_xy), [("triangle", plug.element_nodes.astype(np.int64))])
+    mesh.point_data["displacement_m"] = _xyz(plug.u)
+    mesh.cell_data["stress_compression_positive_Pa"] = [_stress_tensor(stress)]
+    # The blocks' mean in-plane stress: the pressure inside the agent.
+    mesh.cell_data["pressure_Pa"] = [0.5 * (stress[:, 0] + stress[:, 1])]
+    mesh.cell_data["expansive_pressure_Pa"] = [np.full(n, float(plug.expansive_pressure))]
+    return mesh
+
+
+def plug_file(grains_file: str) -> str:
+    """The plug's file of the snapshot whose grains are in ``grains_file``."""
+    return grains_file.replace("grains_", "scda_", 1)
 
 
 def _stress_tensor(stress: np.ndarray) -> np.ndarray:
@@ -50,12 +86,15 @@ class SnapshotSeries:
         status: np.ndarray,
         pressure: np.ndarray | None = None,
         aperture: np.ndarray | None = None,
+        plug: PlugState | None = None,
     ) -> int:
-        """Write one snapshot; return its index."""
+        """Write one snapshot (``stress`` tension positive, as the mechanics keeps it: the
+        file has it compression positive); return its index."""
         index = len(self.entries)
         grains = grains_mesh(assembly)
         grains.point_data["displacement_m"] = _xyz(u)
-        grains.cell_data["stress_Pa"] = [_stress_tensor(stress)]
+        grains.cell_data["stress_compression_positive_Pa"] = [
+            _stress_tensor(to_output_stress(stress))]
         contacts = contacts_mesh(assembly)
         extra = {
             "normal_stress_Pa": sigma_n,
@@ -71,9 +110,14 @@ class SnapshotSeries:
         for key, value in extra.items():
             contacts.cell_data[key] = [np.asarray(value)]
         names = (f"grains_{index:04d}.vtu", f"contacts_{index:04d}.vtu")
+        meta = {METADATA_FIELD: metadata_bytes(assembly)}
+        plug_path = self.directory / plug_file(names[0])
+        if plug is not None:
+            write_vtu(plug_path, plug_mesh(plug), meta)
+        elif plug_path.exists():  # left by a run this one resumes past
+            plug_path.unlink()
         for name, data in zip(names, (grains, contacts), strict=True):
-            write_atomic(self.directory / name,
-                         lambda p, d=data: meshio.write(p, d, file_format="vtu"))
+            write_vtu(self.directory / name, data, meta)
         self.entries.append((float(time), *names))
         self._write_pvd()
         return index
@@ -84,6 +128,9 @@ class SnapshotSeries:
         for time, grains, contacts in self.entries:
             ET.SubElement(coll, "DataSet", timestep=repr(time), part="0", file=grains)
             ET.SubElement(coll, "DataSet", timestep=repr(time), part="1", file=contacts)
+            if (self.directory / plug_file(grains)).is_file():
+                ET.SubElement(coll, "DataSet", timestep=repr(time), part="2",
+                              file=plug_file(grains))
         ET.indent(root)
         write_text(self.directory / "series.pvd",
                    '<?xml version="1.0"?>\n' + ET.tostring(root, encoding="unicode") + "\n")

@@ -15,6 +15,37 @@ import numpy as np
 from grainfrac.assembly import GrainAssembly
 from grainfrac.io.files import write_atomic
 
+#: The field-data array of every .vtu grainfrac writes: the code tables and the sign
+#: convention as UTF-8 JSON bytes (``bytes(array).decode()``; docs/outputs.md).
+METADATA_FIELD = "grainfrac_metadata_json"
+
+
+def write_vtu(path: str | Path, mesh: meshio.Mesh,
+              field_data: dict[str, np.ndarray] | None = None) -> Path:
+    """Write ``mesh`` as .vtu atomically, with ``field_data`` (1D arrays, e.g. the UInt8
+    JSON of :func:`grainfrac.physics.codes.metadata_bytes`) in the file's FieldData:
+    meshio's writer drops field data, so it is added to the XML here (ascii, which
+    meshio and ParaView read)."""
+
+    def write(tmp: Path) -> None:
+        meshio.write(tmp, mesh, file_format="vtu")
+        if not field_data:
+            return
+        arrays = []
+        for name, values in field_data.items():
+            values = np.asarray(values).ravel()
+            kind = {np.dtype(np.uint8): "UInt8", np.dtype(np.int32): "Int32",
+                    np.dtype(np.int64): "Int64", np.dtype(np.float64): "Float64"}[values.dtype]
+            arrays.append(f'<DataArray type="{kind}" Name="{name}" NumberOfTuples='
+                          f'"{len(values)}" format="ascii">\n'
+                          + " ".join(str(v) for v in values.tolist()) + "\n</DataArray>")
+        block = "<FieldData>\n" + "\n".join(arrays) + "\n</FieldData>\n"
+        text = tmp.read_text(encoding="utf-8")
+        text = text.replace("<UnstructuredGrid>\n", "<UnstructuredGrid>\n" + block, 1)
+        tmp.write_text(text, encoding="utf-8")
+
+    return write_atomic(path, write)
+
 
 def _xyz(xy: np.ndarray) -> np.ndarray:
     return np.column_stack((xy, np.zeros(len(xy))))
@@ -101,12 +132,11 @@ def write_assembly(assembly: GrainAssembly, directory: str | Path) -> list[Path]
 
     2D: triangles and sub-contacts as short lines; 3D: tetrahedra and grain faces.
     """
+    from grainfrac.physics.codes import metadata_bytes
+
     directory = Path(directory)
     builders = ((grains_mesh, contacts_mesh) if assembly.dimension == 2
                 else (grains_mesh3d, contacts_mesh3d))
-    out = []
-    for name, build in zip(("grains.vtu", "contacts.vtu"), builders, strict=True):
-        data = build(assembly)
-        out.append(write_atomic(directory / name,
-                                lambda p, d=data: meshio.write(p, d, file_format="vtu")))
-    return out
+    meta = {METADATA_FIELD: metadata_bytes(assembly)}
+    return [write_vtu(directory / name, build(assembly), meta)
+            for name, build in zip(("grains.vtu", "contacts.vtu"), builders, strict=True)]

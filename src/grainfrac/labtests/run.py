@@ -113,7 +113,7 @@ def run_labtest(config: LabTestConfig, out: str | Path, *,
     if curve is not None:
         contact, mode, times, energy = result["cracks"]
         cat = crack_catalogue(assembly, contact, times, mode, energy)
-        write_cracks(out / "cracks.csv", cat.rows(assembly.pair_names))
+        write_cracks(out / "cracks.csv", cat.rows(assembly.pair_names, [(config.test, 0.0)]))
         _write_curve(out, config, curve, summary)
         plot_fracture_pattern(assembly, contact, mode, out / "figures" / "cracks.png",
                               title=f"{config.test.upper()} {config.run_name}: "

@@ -7,9 +7,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from grainfrac.assembly import GrainAssembly
+from grainfrac.physics.codes import MODE_NAMES
 from grainfrac.physics.kernels import SHEAR, TENSILE
 
-MODE_NAMES = {TENSILE: "tensile", SHEAR: "shear"}
+__all__ = ["MODE_NAMES", "CrackCatalogue", "crack_catalogue"]
 
 
 @dataclass(frozen=True)
@@ -23,6 +24,9 @@ class CrackCatalogue:
     mode: np.ndarray  # kernels.TENSILE or kernels.SHEAR
     pair: np.ndarray  # mineral-pair id
     energy: np.ndarray  # strain energy released at failure (J)
+    normal: np.ndarray | None = None  # (n, 2) unit normal, from the first grain to the second
+    length: np.ndarray | None = None  # m, tributary length of the sub-contact
+    grains: np.ndarray | None = None  # (n, 2) the two grains (blocks) it joined
 
     def __len__(self) -> int:
         return len(self.contact)
@@ -35,14 +39,37 @@ class CrackCatalogue:
     def n_shear(self) -> int:
         return int(np.count_nonzero(self.mode == SHEAR))
 
-    def rows(self, pair_names: tuple[str, ...]) -> list[dict]:
-        """Rows for cracks.csv (docs/outputs.md: mm and J at the edge)."""
+    def stage_of(self, stage_starts: list[tuple[str, float]]) -> tuple[list[str], np.ndarray]:
+        """The stage each crack formed in and its start (s), from the stages' kinds and
+        absolute start times in order: the last stage that started strictly before the
+        crack (a crack is timed at the end of its step, so after its stage's start)."""
+        if not stage_starts:
+            return [""] * len(self), np.zeros(len(self))
+        starts = np.array([t for _, t in stage_starts], dtype=float)
+        index = np.maximum(np.searchsorted(starts, self.time, side="left") - 1, 0)
+        return [stage_starts[i][0] for i in index], starts[index]
+
+    def rows(self, pair_names: tuple[str, ...],
+             stage_starts: list[tuple[str, float]] | None = None) -> list[dict]:
+        """Rows for cracks.csv (docs/outputs.md: mm and J at the edge); ``stage_starts``
+        (kind, absolute start time in s) of the stages run, in order."""
+        stage, start = self.stage_of(stage_starts or [])
+        normal = self.normal if self.normal is not None else np.full((len(self), 2), np.nan)
+        length = self.length if self.length is not None else np.full(len(self), np.nan)
+        grains = self.grains if self.grains is not None else np.full((len(self), 2), -1)
+        # The normal's direction as an angle from +x in [0, 180): a crack's two faces
+        # are one plane whichever way its normal points.
+        angle = np.degrees(np.arctan2(normal[:, 1], normal[:, 0])) % 180.0
         return [
             {"time_s": float(t), "x_mm": float(x * 1e3), "y_mm": float(y * 1e3),
              "mode": MODE_NAMES[int(m)], "contact_type": pair_names[int(p)],
-             "energy_J": float(e)}
-            for t, x, y, m, p, e in zip(self.time, self.x, self.y, self.mode, self.pair,
-                                        self.energy, strict=True)
+             "energy_J": float(e), "contact": int(c), "stage": k,
+             "time_from_stage_start_s": float(t - t0),
+             "normal_x": float(n[0]), "normal_y": float(n[1]), "normal_angle_deg": float(a),
+             "length_mm": float(ln * 1e3), "grain_a": int(g[0]), "grain_b": int(g[1])}
+            for t, x, y, m, p, e, c, k, t0, n, a, ln, g in zip(
+                self.time, self.x, self.y, self.mode, self.pair, self.energy, self.contact,
+                stage, start, normal, angle, length, grains, strict=True)
         ]
 
 
@@ -51,7 +78,8 @@ def crack_catalogue(assembly: GrainAssembly, contact: list[int] | np.ndarray,
                     energy: list[float] | np.ndarray) -> CrackCatalogue:
     """Attach positions and mineral-pair types to the solver's crack record."""
     contact = np.asarray(contact, dtype=np.int64)
-    xy = assembly.mesh.contact_xy[contact].reshape(-1, 2)
+    mesh = assembly.mesh
+    xy = mesh.contact_xy[contact].reshape(-1, 2)
     return CrackCatalogue(
         contact=contact,
         time=np.asarray(time, dtype=float),
@@ -60,4 +88,7 @@ def crack_catalogue(assembly: GrainAssembly, contact: list[int] | np.ndarray,
         mode=np.asarray(mode, dtype=np.int64),
         pair=assembly.contact_view("pair")[contact],
         energy=np.asarray(energy, dtype=float),
+        normal=mesh.contact_normal[contact].reshape(-1, 2),
+        length=(mesh.contact_area / mesh.thickness)[contact],
+        grains=mesh.interface_grains[mesh.contact_interface[contact]].reshape(-1, 2),
     )

@@ -13,6 +13,7 @@ from matplotlib.collections import LineCollection, PolyCollection  # noqa: E402
 
 from grainfrac.assembly import GrainAssembly  # noqa: E402
 from grainfrac.io.files import write_atomic  # noqa: E402
+from grainfrac.physics.codes import SIGN_LABEL  # noqa: E402
 from grainfrac.physics.fields import major_principal_stress  # noqa: E402
 
 
@@ -65,7 +66,7 @@ def plot_minor_principal_stress(assembly: GrainAssembly, stress: np.ndarray,
     values = -major_principal_stress(stress) / 1e6
     limit = float(np.percentile(np.abs(values), 99)) or 1.0
     fig, ax = plt.subplots(figsize=(6.0, 5.0), dpi=140)
-    _element_map(ax, assembly, values, "RdBu_r", "minor principal stress (MPa, compression +)",
+    _element_map(ax, assembly, values, "RdBu_r", f"minor principal stress (MPa, {SIGN_LABEL})",
                  vmin=-limit, vmax=limit)
     _frame(ax, assembly, title)
     return _save(fig, path)
@@ -84,6 +85,6 @@ def plot_contact_pressure(assembly: GrainAssembly, pressure: np.ndarray, path: s
     coll = LineCollection(seg, array=p, cmap="plasma", linewidths=1.4)
     coll.set_clim(0.0, max(float(p.max()), 1e-6))
     ax.add_collection(coll)
-    plt.colorbar(coll, ax=ax, label="fluid pressure (MPa)", shrink=0.85)
+    plt.colorbar(coll, ax=ax, label=f"fluid pressure (MPa, {SIGN_LABEL})", shrink=0.85)
     _frame(ax, assembly, title)
     return _save(fig, path)

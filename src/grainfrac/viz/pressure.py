@@ -11,6 +11,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from grainfrac.io.files import write_atomic  # noqa: E402
+from grainfrac.physics.codes import SIGN_LABEL  # noqa: E402
 
 PRESSURE_COLOUR = "#2c7bb6"
 CRACK_COLOUR = "#d7191c"
@@ -43,7 +44,7 @@ def plot_well_pressure(time, pressure, cracks, path: str | Path, *,
                     textcoords="offset points", xytext=(6, 6), fontsize=8)
         ax.set_ylim(top=max(1.15 * p_mpa[k], ax.get_ylim()[1]))
     ax.set_xlabel("time since injection start (ms)")
-    ax.set_ylabel("well pressure (MPa)", color=PRESSURE_COLOUR)
+    ax.set_ylabel(f"well pressure (MPa, {SIGN_LABEL})", color=PRESSURE_COLOUR)
     ax.grid(True, alpha=0.25)
     twin = ax.twinx()
     twin.step(t_ms, n, where="post", color=CRACK_COLOUR, lw=1.2, label="cracks")
@@ -85,7 +86,7 @@ def plot_stage_history(rows: list[dict], path: str | Path, *, title: str | None 
     if np.any(well):
         ax.plot(t_ms, well, color=PRESSURE_COLOUR, lw=1.6, label="well pressure")
     ax.set_xlabel("time (ms)")
-    ax.set_ylabel("pressure (MPa)")
+    ax.set_ylabel(f"pressure (MPa, {SIGN_LABEL})")
     ax.grid(True, alpha=0.25)
     twin = ax.twinx()
     twin.step(t_ms, cracks, where="post", color=CRACK_COLOUR, lw=1.2, label="cracks")
