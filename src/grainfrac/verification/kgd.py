@@ -554,26 +554,25 @@ class InjectionStart:
                    mech.sigma_n.copy(), mech.tau.copy(), mech.energy_balance())
 
 
-def injection_energy(hm: HydroMechanicalSolver, start: InjectionStart,
-                     linear: np.ndarray) -> dict[str, float]:
+def injection_energy(hm: HydroMechanicalSolver, start: InjectionStart, linear: np.ndarray,
+                     confinement: float) -> dict[str, float]:
     """Energy books (J) since injection began, net of the confinement's share.
 
-    The slab starts under a uniform stress ``sigma_0``; the stored energy then
-    changes by ``int sigma_0 : d eps`` (paid for by the confinement's work on the
-    sides and the ``sigma_0`` part of the well pressure, reversibly) plus the
-    energy ``elastic`` of the stress change alone: ``1/2 du K du`` of the grains
-    (displacement change ``du``) and ``1/2 dsigma^2 / k`` of the ``linear``
-    (always bonded) contacts. ``confinement`` is the difference between the
-    change of the stored energy and ``elastic``; ``work_net`` the mechanics'
-    work in (boundary, well wall and fluid on the grains) less ``confinement``,
-    so that ``work_net = elastic + kinetic + damping + fracture + friction +
-    mechanics_residual``. ``fracture`` is the bond energy released (softening
-    work and the elastic energy freed at breaks: the plane's ``G_I`` x area when
-    bonds break at full softening). The fluid's books
-    (:meth:`HydroMechanicalSolver.hydraulic_energy`) add ``viscous``,
-    ``fluid_stored`` (compression), ``outflow`` and ``hydraulic_residual``;
-    ``total = work_net + pumped - on_grains`` is the energy the injection put
-    in, less the confinement's share, and the sum of all the sinks.
+    The slab starts under a uniform stress ``sigma_0`` (``confinement``, Pa); its
+    stored energy then changes by ``int sigma_0 : d eps`` (paid for, reversibly,
+    by the confinement's work on the sides and the ``sigma_0`` part of the fluid
+    pressure) plus ``elastic``, the energy of the stress change alone:
+    ``1/2 du K du`` of the grains (displacement change ``du``) and
+    ``1/2 dsigma^2 / k`` of the ``linear`` (always bonded) sub-contacts.
+    ``confinement_exchange`` is the change of the stored energy less ``elastic``;
+    ``work_net``, the mechanics' work in (sides, well wall, fluid on the grains)
+    less ``confinement_exchange``, so that ``work_net = elastic + kinetic +
+    damping + fracture + friction + mechanics_residual``. ``fracture`` is the
+    bond energy released (softening work and the elastic energy freed at
+    breaks). The fluid's books (:meth:`HydroMechanicalSolver.hydraulic_energy`):
+    ``pumped``, ``on_grains``, ``viscous``, ``fluid_stored`` (compression),
+    ``outflow``, ``hydraulic_residual``; ``pumped_net = pumped - sigma_0 x
+    injected volume`` is the pump's work above the confinement.
     """
     mech = hm.mechanics
     m = mech.model
@@ -585,12 +584,11 @@ def injection_energy(hm: HydroMechanicalSolver, start: InjectionStart,
     elastic += kernels.contact_strain_energy(
         (mech.sigma_n - start.sigma_n)[linear], (mech.tau - start.tau)[linear],
         m.normal_stiffness[linear], m.shear_stiffness[linear], m.contact_area[linear])
-    stored = d["grain_strain_energy"] + d["contact_strain_energy"]
-    confinement = stored - elastic
+    exchange = d["grain_strain_energy"] + d["contact_strain_energy"] - elastic
     hyd = hm.hydraulic_energy()
-    books = {
-        "work_net": d["work_in"] - confinement,
-        "confinement": confinement,
+    return {
+        "work_net": d["work_in"] - exchange,
+        "confinement_exchange": exchange,
         "elastic": elastic,
         "kinetic": d["kinetic_energy"],
         "damping": d["damping_work"],
@@ -598,14 +596,13 @@ def injection_energy(hm: HydroMechanicalSolver, start: InjectionStart,
         "friction": d["friction_work"],
         "mechanics_residual": d["residual"],
         "pumped": hyd["pumped"],
+        "pumped_net": hyd["pumped"] - confinement * float(hm.state.injected),
         "on_grains": hyd["on_grains"],
         "viscous": hyd["viscous"],
         "fluid_stored": hyd["stored"],
         "outflow": hyd["outflow"],
         "hydraulic_residual": hyd["residual"],
     }
-    books["total"] = books["work_net"] + hyd["pumped"] - hyd["on_grains"]
-    return books
 
 
 def _measure(run: KGDRun, assembly: GrainAssembly, plane_c: np.ndarray, start: InjectionStart,
@@ -645,7 +642,7 @@ def _measure(run: KGDRun, assembly: GrainAssembly, plane_c: np.ndarray, start: I
         n_softening=int(np.count_nonzero(softening)),
         cohesive_zone_length=float(np.sum(mesh.contact_area[plane_c][softening]))
         / mesh.thickness / 2.0,
-        energy=injection_energy(hm, start, linear),
+        energy=injection_energy(hm, start, linear, config.confinement),
     )
 
 
