@@ -1,7 +1,7 @@
 """KGD verification, toughness-dominated: fracture along a bonded plane vs the K-vertex.
 
 The reference solution is checked on its own (fast); the full case
-(``grainfrac verify kgd-toughness``) is marked slow. Every test prints what it
+(``grainfrac verify kgd-toughness``, 2-3 min on one core) is marked slow. Every test prints what it
 measured (run ``pytest -s`` to see it).
 """
 

@@ -4,7 +4,7 @@ The validation pages are built from these files by ``docs/gen_ref.py``; nothing 
 them is typed by hand. Three sources, one subcommand each::
 
     python docs/scripts/update_validation.py verify            # grainfrac verify --json
-    python docs/scripts/update_validation.py verify --kgd      # ... and the KGD cases (~4 min)
+    python docs/scripts/update_validation.py verify --kgd      # ... and the KGD cases (~5 min)
     python docs/scripts/update_validation.py claims            # the slow paper-claim tests
     python docs/scripts/update_validation.py study DIR         # a `grainfrac study paper` run
 
@@ -115,7 +115,7 @@ def main() -> None:
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = parser.add_subparsers(dest="what", required=True)
     v = sub.add_parser("verify", help="grainfrac verify CASE --json for every case")
-    v.add_argument("--kgd", action="store_true", help="include the KGD cases (~4 min)")
+    v.add_argument("--kgd", action="store_true", help="include the KGD cases (~5 min)")
     c = sub.add_parser("claims", help="the slow paper-claim tests")
     c.add_argument("--cache", type=Path, default=ROOT / "build" / "claims",
                    help="where the claim sweeps are kept between calls")
