@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from grainfrac.verification import elastic, elastic3d, hydraulic, kgd
+from grainfrac.verification import elastic, elastic3d, hydraulic, kgd, kgd_toughness
 from grainfrac.verification.report import (
     ROW_KEYS,
     Comparison,
@@ -26,6 +26,7 @@ CASES: dict[str, Callable[..., list[Comparison]]] = {
     "lame": elastic.lame,
     "cubic-law": hydraulic.cubic_law,
     "kgd": kgd.kgd,
+    "kgd-toughness": kgd_toughness.kgd_toughness,
     "patch3d": elastic3d.patch3d,
     "lame3d": elastic3d.lame3d,
     "kirsch3d": elastic3d.kirsch3d,

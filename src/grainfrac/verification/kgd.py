@@ -182,7 +182,7 @@ from grainfrac.geometry import tessellation as tess
 from grainfrac.geometry.meshing import GrainMesh, mesh_grains
 from grainfrac.geometry.specimens import Outline, arc_points
 from grainfrac.loading.boundary import normal_pressure_forces
-from grainfrac.physics import flow
+from grainfrac.physics import flow, kernels
 from grainfrac.physics.coupled import HydroMechanicalSolver
 from grainfrac.physics.kinematics import contact_opening
 from grainfrac.physics.model import build_mechanical_model
@@ -274,8 +274,13 @@ def m_vertex(time: float, plane_modulus: float, viscosity: float, rate_2d: float
 
 # -- configuration ---------------------------------------------------------------------------
 @dataclass(frozen=True)
-class KGDConfig:
-    """Parameters of the KGD case (SI). The defaults are the verification case."""
+class PlaneSlabConfig:
+    """Slab, grains, confinement, fluid and stepping shared by the KGD cases (SI).
+
+    The defaults are those of the M-vertex case; :class:`KGDConfig` adds its
+    injection sizing and ``grainfrac verify kgd-toughness`` its own
+    (:mod:`grainfrac.verification.kgd_toughness`).
+    """
 
     width: float = 500 * MM  # square slab side
     thickness: float = 10 * MM
@@ -292,10 +297,6 @@ class KGDConfig:
     confinement: float = 30 * MPA
     fluid_bulk_modulus: float = 2.0e10
     aperture: float = 1.0e-7  # a0 = a_res
-    # Injection sized so that the M-vertex reaches final_half_length with
-    # final_opening at the well at t = duration.
-    final_half_length: float = 50 * MM
-    final_opening: float = 30 * UM
     duration: float = 0.012
     n_steps: int = 1000
     step_exponent: float = 1.5  # fluid steps t_k = duration (k / n_steps)^exponent
@@ -303,6 +304,16 @@ class KGDConfig:
     opening_threshold: float = 0.05  # tip: opening below this x opening at the well
     in_situ_ratio: float = 1e-5
     in_situ_max_steps: int = 200_000
+
+
+@dataclass(frozen=True)
+class KGDConfig(PlaneSlabConfig):
+    """Parameters of the KGD case (SI). The defaults are the verification case."""
+
+    # Injection sized so that the M-vertex reaches final_half_length with
+    # final_opening at the well at t = duration.
+    final_half_length: float = 50 * MM
+    final_opening: float = 30 * UM
 
     @property
     def rate_2d(self) -> float:
@@ -333,7 +344,7 @@ def _hex_lattice(xmin: float, ymin: float, xmax: float, ymax: float, h: float) -
     return np.vstack(rows)
 
 
-def _graded_seeds(config: KGDConfig, rng: np.random.Generator) -> np.ndarray:
+def _graded_seeds(config: PlaneSlabConfig, rng: np.random.Generator) -> np.ndarray:
     """Seeds in the upper half: jittered hexagonal lattices of spacing h0 2^k by zone."""
     w = config.width / 2
     h0 = config.fine_grain
@@ -356,7 +367,7 @@ def _mirror(poly: shapely.Polygon) -> shapely.Polygon:
     return shapely.transform(poly, lambda xy: xy * np.array([1.0, -1.0]))
 
 
-def kgd_grains(config: KGDConfig, rng: np.random.Generator) -> tess.GrainMap:
+def kgd_grains(config: PlaneSlabConfig, rng: np.random.Generator) -> tess.GrainMap:
     """Graded Voronoi grains, mirror-symmetric about the straight plane ``y = 0``."""
     w, r = config.width / 2, config.borehole_radius
     n_half = config.borehole_chords // 2
@@ -409,15 +420,46 @@ def plane_interfaces(mesh: GrainMesh, tol: float = 1e-9) -> np.ndarray:
     return (count > 0) & (off == 0)
 
 
-def kgd_assembly(config: KGDConfig, seed: int = 0) -> tuple[GrainAssembly, np.ndarray]:
-    """The meshed slab with homogeneous quartz grains and the weak plane; its plane mask."""
+@dataclass(frozen=True)
+class PlaneBond:
+    """A bonded plane: mode-I strength (Pa) and fracture energy ``G_I`` (J/m2).
+
+    Linear softening (:func:`grainfrac.physics.kernels.contact_law`); the plane
+    stays frictionless and fails in opening only (its cohesion is unbreakable).
+    """
+
+    tensile_strength: float
+    fracture_energy: float
+
+
+def grain_recipe(config: PlaneSlabConfig) -> materials.RockRecipe:
+    """Homogeneous quartz, contact stiffness ``config.stiffness_factor`` x Table 2."""
+    return materials.homogeneous_recipe("quartz", stiffness_factor=config.stiffness_factor)
+
+
+def plane_strain_modulus(config: PlaneSlabConfig) -> float:
+    """``E' = E / (1 - nu^2)`` (Pa) of the grains of :func:`grain_recipe`."""
+    mtab = materials.mineral_table(grain_recipe(config))
+    e, nu = float(mtab.youngs_modulus_Pa[0]), float(mtab.poisson_ratio[0])
+    return e / (1.0 - nu**2)
+
+
+def kgd_assembly(config: PlaneSlabConfig, seed: int = 0, bond: PlaneBond | None = None
+                 ) -> tuple[GrainAssembly, np.ndarray]:
+    """The meshed slab with homogeneous quartz grains and the plane; its plane mask.
+
+    Without ``bond`` the plane has zero strength and is unbonded from the start;
+    with one it is bonded with that tensile strength and ``G_I``.
+    """
     rng = np.random.default_rng(np.random.SeedSequence(seed).spawn(1)[0])
     mesh = mesh_grains(kgd_grains(config, rng), config.zone_size)
     plane = plane_interfaces(mesh)
-    recipe = materials.homogeneous_recipe("quartz", stiffness_factor=config.stiffness_factor)
+    recipe = grain_recipe(config)
     mtab, ctab = materials.mineral_table(recipe), materials.contact_table(recipe)
     ng, nf = mesh.grains.n_grains, mesh.n_interfaces
     strong = 1e15  # Pa: unbreakable
+    tensile = 0.0 if bond is None else bond.tensile_strength
+    energy = 0.0 if bond is None else bond.fracture_energy
     assembly = GrainAssembly(
         mesh=mesh, recipe=recipe, seed=seed, mineral_table=mtab, contact_table=ctab,
         grain_mineral=np.zeros(ng, dtype=np.intp),
@@ -425,13 +467,13 @@ def kgd_assembly(config: KGDConfig, seed: int = 0) -> tuple[GrainAssembly, np.nd
         grain_poisson_ratio=np.full(ng, mtab.poisson_ratio[0]),
         grain_density=np.full(ng, mtab.density_kg_m3[0]),
         interface_pair=np.zeros(nf, dtype=np.intp),
-        interface_fissure=plane.copy(),  # unbonded from the start
+        interface_fissure=plane & (bond is None),  # a weak plane is unbonded from the start
         interface_normal_stiffness=np.full(nf, ctab.normal_stiffness_Pa_per_m[0]),
         interface_shear_stiffness=np.full(nf, ctab.shear_stiffness_Pa_per_m[0]),
         interface_friction_angle=np.where(plane, 0.0, ctab.friction_angle_rad[0]),
-        interface_cohesion=np.where(plane, 0.0, strong),
-        interface_tensile_strength=np.where(plane, 0.0, strong),
-        interface_tensile_fracture_energy=np.zeros(nf),
+        interface_cohesion=np.where(plane & (bond is None), 0.0, strong),
+        interface_tensile_strength=np.where(plane, tensile, strong),
+        interface_tensile_fracture_energy=np.where(plane, energy, 0.0),
         interface_shear_fracture_energy=np.zeros(nf),
     )
     return assembly, plane
@@ -452,14 +494,20 @@ class KGDState:
     borehole_widening: float  # m3, growth of the borehole's void since injection began
     injected_volume: float  # m3
     max_off_plane_opening: float  # m, largest |opening| of a grain boundary off the plane
-    n_broken_bonds: int  # bonds broken so far (the bonded grain boundaries are unbreakable)
+    n_broken_bonds: int  # bonds broken so far (off the plane the bonds are unbreakable)
+    # Bonded plane only (0 on a weak plane): softening sub-contacts (0 < D < 1) and the
+    # extent along the plane of the cohesive zone, one side averaged (m).
+    n_softening: int = 0
+    cohesive_zone_length: float = 0.0
+    # Energy books since injection began (J), see :func:`injection_energy`.
+    energy: dict[str, float] = field(default_factory=dict)
 
 
 @dataclass
 class KGDRun:
     """A KGD run: configuration, moduli, injection and the measured states."""
 
-    config: KGDConfig
+    config: PlaneSlabConfig
     plane_modulus: float
     viscosity: float
     rate_2d: float
@@ -488,10 +536,79 @@ def _tip(x: np.ndarray, w: np.ndarray, threshold: float) -> float:
     return float(x0 + (w0 - threshold) / (w0 - w1) * (x1 - x0))
 
 
-def _measure(run: KGDRun, assembly: GrainAssembly, plane_c: np.ndarray, opening0: np.ndarray,
-             well_void0: float, hm: HydroMechanicalSolver, time: float) -> KGDState:
+@dataclass(frozen=True)
+class InjectionStart:
+    """The confined slab when injection begins: what the measurements subtract."""
+
+    opening: np.ndarray  # (n_contacts,) m
+    well_void: float  # m3
+    u: np.ndarray  # (n, 2) m
+    sigma_n: np.ndarray  # (c,) Pa
+    tau: np.ndarray  # (c, 1) Pa
+    books: dict[str, float]  # MechanicsSolver.energy_balance()
+
+    @classmethod
+    def of(cls, assembly: GrainAssembly, hm: HydroMechanicalSolver) -> InjectionStart:
+        mech = hm.mechanics
+        return cls(contact_opening(assembly, mech.u), hm.well_void(), mech.u.copy(),
+                   mech.sigma_n.copy(), mech.tau.copy(), mech.energy_balance())
+
+
+def injection_energy(hm: HydroMechanicalSolver, start: InjectionStart, linear: np.ndarray,
+                     confinement: float) -> dict[str, float]:
+    """Energy books (J) since injection began, net of the confinement's share.
+
+    The slab starts under a uniform stress ``sigma_0`` (``confinement``, Pa); its
+    stored energy then changes by ``int sigma_0 : d eps`` (paid for, reversibly,
+    by the confinement's work on the sides and the ``sigma_0`` part of the fluid
+    pressure) plus ``elastic``, the energy of the stress change alone:
+    ``1/2 du K du`` of the grains (displacement change ``du``) and
+    ``1/2 dsigma^2 / k`` of the ``linear`` (always bonded) sub-contacts.
+    ``confinement_exchange`` is the change of the stored energy less ``elastic``;
+    ``work_net``, the mechanics' work in (sides, well wall, fluid on the grains)
+    less ``confinement_exchange``, so that ``work_net = elastic + kinetic +
+    damping + fracture + friction + mechanics_residual``. ``fracture`` is the
+    bond energy released (softening work and the elastic energy freed at
+    breaks). The fluid's books (:meth:`HydroMechanicalSolver.hydraulic_energy`):
+    ``pumped``, ``on_grains``, ``viscous``, ``fluid_stored`` (compression),
+    ``outflow``, ``hydraulic_residual``; ``pumped_net = pumped - sigma_0 x
+    injected volume`` is the pump's work above the confinement.
+    """
+    mech = hm.mechanics
+    m = mech.model
+    now = mech.energy_balance()
+    d = {k: now[k] - start.books[k] for k in now}
+    zero = mech.element_state()._replace(eigenstrain=np.zeros_like(mech.eigenstrain),
+                                         initial_strain=np.zeros_like(mech.initial_strain))
+    elastic = kernels.element_strain_energy(mech.u - start.u, m.elements, zero)
+    elastic += kernels.contact_strain_energy(
+        (mech.sigma_n - start.sigma_n)[linear], (mech.tau - start.tau)[linear],
+        m.normal_stiffness[linear], m.shear_stiffness[linear], m.contact_area[linear])
+    exchange = d["grain_strain_energy"] + d["contact_strain_energy"] - elastic
+    hyd = hm.hydraulic_energy()
+    return {
+        "work_net": d["work_in"] - exchange,
+        "confinement_exchange": exchange,
+        "elastic": elastic,
+        "kinetic": d["kinetic_energy"],
+        "damping": d["damping_work"],
+        "fracture": d["bond_energy_released"],
+        "friction": d["friction_work"],
+        "mechanics_residual": d["residual"],
+        "pumped": hyd["pumped"],
+        "pumped_net": hyd["pumped"] - confinement * float(hm.state.injected),
+        "on_grains": hyd["on_grains"],
+        "viscous": hyd["viscous"],
+        "fluid_stored": hyd["stored"],
+        "outflow": hyd["outflow"],
+        "hydraulic_residual": hyd["residual"],
+    }
+
+
+def _measure(run: KGDRun, assembly: GrainAssembly, plane_c: np.ndarray, start: InjectionStart,
+             hm: HydroMechanicalSolver, time: float) -> KGDState:
     config, mesh = run.config, assembly.mesh
-    opening = contact_opening(assembly, hm.mechanics.u) - opening0
+    opening = contact_opening(assembly, hm.mechanics.u) - start.opening
     xc = mesh.contact_xy[plane_c, 0]
     w = opening[plane_c]
     at_wall = np.abs(xc) <= config.borehole_radius * (1 + 1e-6)
@@ -505,6 +622,11 @@ def _measure(run: KGDRun, assembly: GrainAssembly, plane_c: np.ndarray, opening0
     l_right = _tip(xs[right], ws[right], threshold)
     l_left = _tip(-xs[left][::-1], ws[left][::-1], threshold)
     off = ~plane_c
+    n = mesh.n_contacts
+    bonded = hm.mechanics.bonded[:n][plane_c]
+    softening = bonded & (hm.mechanics.damage[:n][plane_c] > 0.0)
+    linear = np.zeros(len(hm.mechanics.sigma_n), dtype=bool)
+    linear[:n] = off
     return KGDState(
         time=time,
         half_length=0.5 * (l_left + l_right),
@@ -513,14 +635,18 @@ def _measure(run: KGDRun, assembly: GrainAssembly, plane_c: np.ndarray, opening0
         opening_well=w_well,
         net_pressure_well=hm.well_pressure - config.confinement,
         fracture_volume=float(np.sum(np.clip(w, 0.0, None) * mesh.contact_area[plane_c])),
-        borehole_widening=hm.well_void() - well_void0,
+        borehole_widening=hm.well_void() - start.well_void,
         injected_volume=float(hm.state.injected),
         max_off_plane_opening=float(np.max(np.abs(opening[off]))) if off.any() else 0.0,
         n_broken_bonds=len(hm.mechanics.cracks.contact),
+        n_softening=int(np.count_nonzero(softening)),
+        cohesive_zone_length=float(np.sum(mesh.contact_area[plane_c][softening]))
+        / mesh.thickness / 2.0,
+        energy=injection_energy(hm, start, linear, config.confinement),
     )
 
 
-def _step_ticks(config: KGDConfig, dt: float) -> np.ndarray:
+def _step_ticks(config: PlaneSlabConfig, dt: float) -> np.ndarray:
     """Fluid-step ends in mechanical steps: t_k = T (k/N)^a, plus the compared times."""
     k = np.arange(config.n_steps + 1) / config.n_steps
     ticks = np.round(config.duration * k**config.step_exponent / dt)
@@ -551,10 +677,9 @@ class KGDInjection:
     kind: str = "inject"
     periodic_snapshots: bool = False
     state: KGDInjectionState = field(default_factory=KGDInjectionState)
-    # Set when the stage begins: openings and borehole void after the confinement,
-    # the mechanical step and the fluid-step grid in mechanical steps.
-    opening0: np.ndarray = field(init=False, repr=False)
-    well_void0: float = field(init=False, repr=False)
+    # Set when the stage begins: the confined state, the mechanical step and the
+    # fluid-step grid in mechanical steps.
+    start: InjectionStart = field(init=False, repr=False)
     dt: float = field(init=False, repr=False)
     ticks: np.ndarray = field(init=False, repr=False)
     compare: set[int] = field(init=False, repr=False)
@@ -563,7 +688,6 @@ class KGDInjection:
         config, mesh, mech = self.run.config, self.assembly.mesh, world.solver
         self.state.start_time = mech.time
         mech.loads.external -= normal_pressure_forces(mesh, "borehole", config.confinement)
-        self.opening0 = contact_opening(self.assembly, mech.u)
         fluid = flow.FluidProperties(
             viscosity=self.run.viscosity, bulk_modulus=config.fluid_bulk_modulus,
             initial_aperture=config.aperture, residual_aperture=config.aperture,
@@ -574,9 +698,9 @@ class KGDInjection:
         hm = HydroMechanicalSolver(self.assembly, mech, network, fluid)
         start = np.zeros(network.n_unknowns)
         start[network.well_unknown] = config.confinement
-        self.well_void0 = hm.well_void()
         hm.state = flow.initial_state(network, hm.aperture(), fluid, pressure=start,
-                                      well_volume=self.well_void0)
+                                      well_volume=hm.well_void())
+        self.start = InjectionStart.of(self.assembly, hm)
         world.coupled = hm
         world.injection_start_time = mech.time
         self.dt = mech.model.dt
@@ -591,8 +715,7 @@ class KGDInjection:
                               self.run.rate_2d * self.run.config.thickness)
         if int(ticks[k]) in self.compare or (self.record_every and k % self.record_every == 0):
             self.run.states.append(_measure(self.run, self.assembly, self.plane_c,
-                                            self.opening0, self.well_void0, world.coupled,
-                                            ticks[k] * dt))
+                                            self.start, world.coupled, ticks[k] * dt))
         self.state.step = k
 
     def finished(self) -> bool:
@@ -612,20 +735,17 @@ class _RequireConfinement(Hooks):
                            f"{stage.state.steps} steps")
 
 
-def run_kgd(config: KGDConfig | None = None, seed: int = 0,
-            record_every: int = 0) -> KGDRun:
-    """Build, confine and inject on the driver; measure at ``config.compare_at`` (and
-    every ``record_every`` fluid steps if > 0).
+def run_plane_injection(run: KGDRun, assembly: GrainAssembly, plane: np.ndarray,
+                        record_every: int = 0) -> KGDRun:
+    """Confine ``assembly`` and inject at ``run.rate_2d`` on the driver, filling
+    ``run.states`` at ``run.config.compare_at`` (and every ``record_every`` fluid
+    steps if > 0); ``plane`` marks the plane's interfaces.
     """
-    config = config or KGDConfig()
-    assembly, plane = kgd_assembly(config, seed)
-    mesh = assembly.mesh
+    config, mesh = run.config, assembly.mesh
     e = float(assembly.grain_youngs_modulus[0])
     nu = float(assembly.grain_poisson_ratio[0])
-    plane_modulus = e / (1.0 - nu**2)
-    run = KGDRun(config, plane_modulus, config.viscosity(plane_modulus), config.rate_2d,
-                 mesh.n_nodes, 0)
     plane_c = plane[mesh.contact_interface]
+    run.n_nodes = mesh.n_nodes
     run.n_plane_points = len(np.unique(np.round(mesh.contact_xy[plane_c, 0], 9)))
 
     # Confinement, the borehole at the same pressure: uniform stress, so start from
@@ -641,6 +761,18 @@ def run_kgd(config: KGDConfig | None = None, seed: int = 0,
     ]
     Driver(stages, World(assembly, mech), _RequireConfinement()).execute()
     return run
+
+
+def run_kgd(config: KGDConfig | None = None, seed: int = 0,
+            record_every: int = 0) -> KGDRun:
+    """Build, confine and inject on the driver; measure at ``config.compare_at`` (and
+    every ``record_every`` fluid steps if > 0).
+    """
+    config = config or KGDConfig()
+    assembly, plane = kgd_assembly(config, seed)
+    plane_modulus = plane_strain_modulus(config)
+    run = KGDRun(config, plane_modulus, config.viscosity(plane_modulus), config.rate_2d, 0, 0)
+    return run_plane_injection(run, assembly, plane, record_every)
 
 
 def kgd(seed: int = 0, *, config: KGDConfig | None = None) -> list[Comparison]:
