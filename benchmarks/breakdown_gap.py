@@ -254,7 +254,7 @@ def page(out: Path) -> str:
              "Means over grain realisations with 95 % Student-t intervals in brackets. "
              f"The paper's HS-only breakdown in Case 2 at 90 ml/min is {PAPER_HS_ONLY_MPA} MPa "
              "and its hybrid ~30 % lower. What the numbers mean and the defaults chosen from "
-             "them: [decision record](../decisions/0015-well-wall-and-knobs.md).", ""]
+             "them: [decision record](../decisions/0017-well-wall-and-knobs.md).", ""]
     for name, (_, _, table, title) in STUDIES.items():
         if not (out / name / "runs").is_dir():
             continue
