@@ -127,18 +127,15 @@ finder never saw. A mean on target over fixed seeds can fit those grain
 structures: the example's recipe, within 2 % over seeds 0-5, gave UCS +42.7 %
 and BTS +10.8 % over seeds 6-17.
 
-Modules
--------
-:mod:`~grainfrac.calibration.config`
-    the targets file's schema, the factors and their pairing;
-:mod:`~grainfrac.calibration.scaling`
-    a recipe at a set of factors;
-:mod:`~grainfrac.calibration.bench`
-    the measurement: lab tests over the realisations, means, spreads and errors;
-:mod:`~grainfrac.calibration.search`
-    the optimiser loop (:func:`calibrate`);
-:mod:`~grainfrac.calibration.results`
-    writing the calibrated recipe, the table and the history, and reading it back.
+The package's modules, one job each:
+
+* ``calibration.config``: the targets file's schema, the factors and their pairing;
+* ``calibration.scaling``: a recipe at a set of factors;
+* ``calibration.bench``: the measurement: lab tests over the realisations, means,
+  spreads and errors;
+* ``calibration.search``: the optimiser loop (:func:`calibrate`);
+* ``calibration.results``: writing the calibrated recipe, the table and the history,
+  and reading the history back.
 
 Every public name is importable from ``grainfrac.calibration`` itself.
 """

@@ -33,18 +33,14 @@ Distribution of Properties (RDP) method so that the area (2D) or volume (3D)
 fractions meet their targets; :func:`select_fissures` picks the contacts that
 start unbonded.
 
-Modules
--------
-:mod:`~grainfrac.materials.recipes`
-    the recipe schemas (minerals, contacts, Weibull, hydraulic, breakable grains, SCDA);
-:mod:`~grainfrac.materials.presets`
-    preset names and loading of recipes from presets or TOML files;
-:mod:`~grainfrac.materials.tables`
-    the SI tables of a recipe and the mineral-pair index;
-:mod:`~grainfrac.materials.weibull`
-    the Weibull multipliers and bounded draws;
-:mod:`~grainfrac.materials.assignment`
-    minerals over grains and the fissure selection.
+The package's modules, one job each:
+
+* ``materials.recipes``: the recipe schemas (minerals, contacts, Weibull,
+  hydraulic, breakable grains, SCDA);
+* ``materials.presets``: preset names, loading recipes from presets or TOML files;
+* ``materials.tables``: the SI tables of a recipe and the mineral-pair index;
+* ``materials.weibull``: the Weibull multipliers and bounded draws;
+* ``materials.assignment``: minerals over grains and the fissure selection.
 
 Every public name is importable from ``grainfrac.materials`` itself.
 """

@@ -31,21 +31,15 @@ Example::
     scenario, recipe = load_scenario("examples/hybrid-case2-90mlmin.toml")
     assembly = build_assembly(scenario.specimen_config(), recipe)
 
-Modules
--------
-:mod:`~grainfrac.scenario.config`
-    the :class:`Scenario` and its checks across sections;
-:mod:`~grainfrac.scenario.stress`, :mod:`~grainfrac.scenario.fluid`,
-:mod:`~grainfrac.scenario.numerics`, :mod:`~grainfrac.scenario.output`
-    one section of a scenario each;
-:mod:`~grainfrac.scenario.stages`
-    the stage schemas and the default injection design;
-:mod:`~grainfrac.scenario.sizes`
-    the size checks made before anything is built;
-:mod:`~grainfrac.scenario.files`
-    loading ``SCENARIO.toml`` and writing the resolved ``config.toml``;
-:mod:`~grainfrac.scenario.presets`
-    the paper's designs (:func:`hs_only`, :func:`hybrid`).
+The package's modules, one job each:
+
+* ``scenario.config``: the :class:`Scenario` and its checks across sections;
+* ``scenario.stress``, ``scenario.fluid``, ``scenario.numerics``,
+  ``scenario.output``: one section of a scenario each;
+* ``scenario.stages``: the stage schemas and the default injection design;
+* ``scenario.sizes``: the size checks made before anything is built;
+* ``scenario.files``: loading ``SCENARIO.toml``, writing the resolved ``config.toml``;
+* ``scenario.presets``: the paper's designs (:func:`hs_only`, :func:`hybrid`).
 
 Every public name is importable from ``grainfrac.scenario`` itself.
 """

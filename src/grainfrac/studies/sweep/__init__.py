@@ -47,18 +47,13 @@ are rebuilt from the run directories alone, so a worker that dies (Dask
 reschedules its task; ``retries`` covers exceptions) can neither lose nor
 duplicate a row, and the same sweep and seeds always give the same tables.
 
-Modules
--------
-:mod:`~grainfrac.studies.sweep.config`
-    the ``SWEEP.toml`` schema;
-:mod:`~grainfrac.studies.sweep.plan`
-    the planned points and runs, built and validated before any compute;
-:mod:`~grainfrac.studies.sweep.runs`
-    one run directory's state and the Dask task that runs it;
-:mod:`~grainfrac.studies.sweep.execute`
-    running sweeps on Dask;
-:mod:`~grainfrac.studies.sweep.tables`
-    the tables and the plan file, rebuilt from the run directories.
+The package's modules, one job each:
+
+* ``sweep.config``: the ``SWEEP.toml`` schema;
+* ``sweep.plan``: the planned points and runs, built and validated before any compute;
+* ``sweep.runs``: one run directory's state and the Dask task that runs it;
+* ``sweep.execute``: running sweeps on Dask;
+* ``sweep.tables``: the tables and the plan file, rebuilt from the run directories.
 
 Every public name is importable from ``grainfrac.studies.sweep`` itself.
 """
