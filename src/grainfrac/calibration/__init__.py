@@ -163,6 +163,8 @@ from grainfrac.calibration.config import (
     Targets,
     load_calibration_config,
 )
+from grainfrac.calibration.config import FactorName as FactorName
+from grainfrac.calibration.config import TargetName as TargetName
 from grainfrac.calibration.results import (
     HELD_OUT_HEADINGS,
     HISTORY_COLUMNS,

@@ -22,6 +22,8 @@ __all__ = [
     "REPORTED",
     "STRENGTHS",
     "TEST_OF",
+    "FactorName",
+    "TargetName",
     "CalibrationConfig",
     "Targets",
     "load_calibration_config",
