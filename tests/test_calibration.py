@@ -322,7 +322,7 @@ def test_a_test_without_peak_is_left_out_of_the_means(monkeypatch):
         return {"test": test, "seed": seed, "ucs_MPa": 100.0 + seed, "poisson_ratio": 0.24,
                 "peak_found": True}
 
-    monkeypatch.setattr(calibration, "_lab_value", lab_value)
+    monkeypatch.setattr(calibration.bench, "_lab_value", lab_value)
     with LabBench([0, 2, 21], calibration.GrainSpec(), workers=1) as bench:
         means, runs = bench.measure(BASE, ("ucs",))
     assert means["ucs_MPa"] == pytest.approx(101.0) and means["poisson_ratio"] == 0.24
@@ -344,8 +344,8 @@ def test_a_specimen_that_locks_up_holds_the_search_back_by_its_highest_load(monk
         return {"test": test, "seed": seed, "ucs_MPa": 100.0 * (1 + 0.05 * seed) * friction**0.6,
                 "peak_found": True}
 
-    monkeypatch.setattr(calibration, "_lab_value", lab_value)
-    monkeypatch.setattr(calibration, "_calibrate_aperture", lambda *a: 2e-7)
+    monkeypatch.setattr(calibration.bench, "_lab_value", lab_value)
+    monkeypatch.setattr(calibration.search, "_calibrate_aperture", lambda *a: 2e-7)
     config = validate(CalibrationConfig, {"seeds": [0, 1, 2], "workers": 1, "tolerance": 0.01,
                                           "max_evaluations": 12,
                                           "factors": {"friction": "ucs_MPa"}})

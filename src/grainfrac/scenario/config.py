@@ -1,0 +1,188 @@
+"""The :class:`Scenario` itself: specimen, in-situ stress, fluid, stages, numerics
+and output, and the checks across them (stage order, borehole, sides, sizes).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from pydantic import Field, model_validator
+
+from grainfrac import materials
+from grainfrac.assembly import FissureSpec, GrainSpec, SpecimenConfig
+from grainfrac.errors import ConfigError
+from grainfrac.geometry.specimens import SlabSpec, SpecimenShapeSpec
+from grainfrac.io.config import StrictModel, validate
+from grainfrac.scenario.fluid import SPECIMEN_SIDES, FluidSpec
+from grainfrac.scenario.numerics import NumericsSpec
+from grainfrac.scenario.output import OutputSpec
+from grainfrac.scenario.sizes import check_size
+from grainfrac.scenario.stages import BOREHOLE_STAGES, ScdaStage, Stage, _stage_entry_errors
+from grainfrac.scenario.stress import _STRESSABLE_SHAPES, InSituStress
+
+__all__ = [
+    "Scenario",
+]
+
+
+class Scenario(StrictModel):
+    """A complete run: specimen, in-situ stress, fluid, stages and output.
+
+    The specimen part (``seed``, ``rock``, ``specimen``, ``grains``,
+    ``fissures``) has the schema and defaults of a specimen file.
+    """
+
+    name: str = Field("scenario", description="run name")
+    seed: int = Field(0, ge=0, description="random seed of grains, minerals, Weibull draws")
+    rock: str | materials.RockRecipe = Field("strathbogie-granite", description="rock recipe")
+    specimen: SpecimenShapeSpec = Field(
+        default_factory=SlabSpec, description="specimen: a slab or rectangle, chosen by `shape`")
+    grains: GrainSpec = Field(default_factory=GrainSpec, description="grain size and mesh")
+    fissures: FissureSpec = Field(default_factory=FissureSpec,
+                                  description="pre-existing unbonded grain boundaries")
+    stress: InSituStress = Field(default_factory=InSituStress,
+                                 description="far-field in-situ stress (paper Table 6)")
+    fluid: FluidSpec = Field(default_factory=FluidSpec,
+                             description="fluid, apertures and permeable sides")
+    stages: list[Stage] = Field(min_length=1, description="stages, run in order")
+    numerics: NumericsSpec = Field(default_factory=NumericsSpec,
+                                   description="damping and mass scaling")
+    output: OutputSpec = Field(default_factory=OutputSpec,
+                               description="snapshot and checkpoint intervals")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _check_stage_entries(cls, data: Any) -> Any:
+        if isinstance(data, dict) and isinstance(data.get("stages"), list):
+            # Every stage's problems at once, one line each.
+            problems = [line for index, stage in enumerate(data["stages"])
+                        for line in _stage_entry_errors(index, stage)]
+            if problems:
+                raise ValueError("\n".join(problems))
+        return data
+
+    @model_validator(mode="after")
+    def _check(self) -> Scenario:
+        try:
+            check_size(self.specimen_config())
+        except ConfigError as exc:
+            raise ValueError("\n".join(f"{f}: {m}" for f, m in exc.problems)) from None
+        self._check_borehole()
+        self._check_order()
+        shape = self.specimen.shape
+        if shape not in _STRESSABLE_SHAPES:
+            raise ValueError(
+                f"specimen.shape: a scenario needs a slab or rectangle (the in-situ stress acts "
+                f"on its left, right, top and bottom sides) (got {shape!r})"
+            )
+        sides = SPECIMEN_SIDES[shape]
+        for side in self.fluid.permeable_sides:
+            if side not in sides:
+                raise ValueError(
+                    f"fluid.permeable_sides: unknown side {side!r}; sides of a {shape}: "
+                    + ", ".join(sides)
+                )
+        return self
+
+    def _check_borehole(self) -> None:
+        spec = self.specimen
+        for i, stage in enumerate(self.stages):
+            if stage.kind not in BOREHOLE_STAGES:
+                continue
+            if not isinstance(spec, SlabSpec):
+                raise ValueError(
+                    f"stages.{i}.kind: {stage.kind} needs a specimen with a borehole (a slab "
+                    f"with borehole_diameter_mm > 0); the specimen is a {spec.shape}"
+                )
+            if spec.borehole_diameter_mm <= 0:
+                raise ValueError(
+                    f"specimen.borehole_diameter_mm: must be > 0 for the {stage.kind} stage "
+                    f"(stages.{i}) (got {spec.borehole_diameter_mm:g})"
+                )
+
+    def _check_order(self) -> None:
+        scda_at: int | None = None
+        drilled_at: int | None = None
+        injected_at: int | None = None
+        for i, stage in enumerate(self.stages):
+            kind = stage.kind
+            where = f"stages.{i}.kind: "
+            if i == 0 and kind != "equilibrate":
+                raise ValueError(
+                    where + f"{kind} must come after equilibrate (the first stage must be "
+                    "equilibrate: in-situ stress before any stimulation)"
+                )
+            if kind == "equilibrate" and i > 0:
+                raise ValueError(
+                    where + "equilibrate must be the first stage only (the in-situ stress is "
+                    "applied once, before any stimulation)"
+                )
+            if kind == "scda":
+                if scda_at is not None:
+                    raise ValueError(where + f"only one scda stage is allowed "
+                                     f"(stages.{scda_at} is scda)")
+                if injected_at is not None:
+                    raise ValueError(where + f"scda must come before any inject stage "
+                                     f"(stages.{injected_at} injects)")
+                scda_at = i
+            elif kind == "drill_out":
+                if scda_at is None:
+                    raise ValueError(where + "drill_out must come after an scda stage "
+                                     "(there is no SCDA to drill out)")
+                if drilled_at is not None:
+                    raise ValueError(where + f"the SCDA was drilled out already "
+                                     f"(stages.{drilled_at})")
+                drilled_at = i
+            elif kind == "inject":
+                if scda_at is not None and drilled_at is None:
+                    raise ValueError(
+                        where + f"inject must come after drill_out (the SCDA of "
+                        f"stages.{scda_at} still fills the borehole)"
+                    )
+                injected_at = i
+
+    # -- views ---------------------------------------------------------------------------
+
+    @property
+    def stage_kinds(self) -> tuple[str, ...]:
+        return tuple(stage.kind for stage in self.stages)
+
+    def specimen_config(self) -> SpecimenConfig:
+        """The geometry and material part, for :func:`grainfrac.assembly.build_assembly`."""
+        return validate(SpecimenConfig, {
+            "seed": self.seed, "rock": self.rock, "specimen": self.specimen,
+            "grains": self.grains, "fissures": self.fissures,
+        })
+
+    def recipe(self, base_dir: Path | None = None) -> materials.RockRecipe:
+        """The rock recipe: inline, a preset name, or a TOML path relative to ``base_dir``."""
+        return self.specimen_config().recipe(base_dir)
+
+    def with_seed(self, seed: int) -> Scenario:
+        """The same scenario with another seed (``grainfrac run --seed N``)."""
+        return validate(Scenario, {**dict(self), "seed": seed})
+
+    def resolved(self, recipe: materials.RockRecipe, base_dir: Path | None = None) -> Scenario:
+        """The same scenario with the rock and every SCDA material written inline."""
+        stages = []
+        for i, stage in enumerate(self.stages):
+            if isinstance(stage, ScdaStage):
+                stage = stage.model_copy(update={"scda": _scda_material(stage, i, base_dir)})
+            stages.append(stage)
+        # The apertures in use: the rock's calibrated a0 unless the fluid section sets one.
+        props = self.fluid.properties(recipe.hydraulic.initial_aperture_m)
+        fluid = self.fluid.model_copy(update={"initial_aperture_m": props.initial_aperture,
+                                              "residual_aperture_m": props.residual_aperture})
+        return validate(Scenario, {**dict(self), "rock": recipe, "stages": stages,
+                                   "fluid": fluid})
+
+
+def _scda_material(stage: ScdaStage, index: int, base_dir: Path | None) -> materials.ScdaRecipe:
+    try:
+        return stage.material(base_dir)
+    except ConfigError as exc:
+        field = f"stages.{index}.scda"
+        if exc.field not in ("scda", field):
+            field = f"{field} ({exc.field})"
+        raise ConfigError(field, exc.message) from None

@@ -1,0 +1,27 @@
+"""The numerics section of a scenario: damping and mass scaling of the explicit
+mechanics.
+"""
+
+from __future__ import annotations
+
+from pydantic import Field
+
+from grainfrac.io.config import StrictModel
+
+__all__ = [
+    "NumericsSpec",
+]
+
+
+class NumericsSpec(StrictModel):
+    """Knobs of the explicit mechanics that a converged answer must not hang on.
+
+    ``local_damping`` is the Itasca local (non-viscous) damping coefficient of every
+    stage; ``mass_scaling`` the fraction of the mass that mass scaling adds to keep
+    the step at the grains' own (1: all of it, 0: real masses, a smaller step).
+    """
+
+    local_damping: float = Field(0.8, ge=0, lt=1, description="local damping coefficient")
+    mass_scaling: float = Field(
+        1.0, ge=0, le=1, description="fraction of the mass scaling's added mass kept "
+        "(1: as designed, 0: real masses)")
