@@ -19,9 +19,11 @@ Studies (5 grain realisations per point unless ``--realisations``):
   breakdown (the breakdown pressure is the quantity); flow knots at a 0.0005 ms
   fluid step (``FLOW_KNOTS_STEP_MS``);
 - ``convergence``: Case 2 HS-only and hybrid at 90 ml/min (full 12 ms) against zone
-  size, mass scaling, local damping and the fluid step;
+  size, mass scaling, local damping and the fluid step (the reference row: the
+  defaults study's runs of the same seeds);
 - ``closure``: the hybrid against the residual aperture of broken grain boundaries
-  (its HS-only reference and default row are the convergence study's);
+  (its HS-only reference and default row are the defaults study's runs of the same
+  seeds);
 - ``defaults``: HS-only and hybrid at 90 ml/min with the defaults, 10 realisations.
 """
 
@@ -80,9 +82,9 @@ def walls_sweep(realisations: int, wall: str = "", fine: bool = False) -> dict[s
             "set": {**QUIET, "stages.1.stop_after_breakdown_ms": 1.0}}
 
 
-# Convergence variants: (id, paths set).
+# Convergence variants: (id, paths set). Their reference row is the first 5
+# realisations (the same seeds) of the ``defaults`` study.
 VARIANTS: tuple[tuple[str, dict[str, Any]], ...] = (
-    ("default", {}),
     ("zone-1.4", {"grains.zone_size_mm": 1.4}),
     ("mass-half", {"numerics.mass_scaling": 0.5}),
     ("mass-off", {"numerics.mass_scaling": 0.0}),
@@ -113,8 +115,9 @@ def convergence_sweep(realisations: int, wall: str, fine: bool = False) -> dict[
 
 
 # Residual aperture of broken grain boundaries (um); the default (a_res = a0 = 0.2 um)
-# is the convergence study's "default" row. Only the hybrid: HS-only cracks are made
-# by the injection itself, open, so their residual aperture hardly matters.
+# and the HS-only reference are the defaults study's runs of the same seeds. Only the
+# hybrid: HS-only cracks are made by the injection itself, open, so their residual
+# aperture hardly matters.
 CLOSURE_APERTURES_UM = (1.0, 5.0)
 
 
@@ -137,9 +140,14 @@ def defaults_sweep(realisations: int, wall: str, fine: bool = False) -> dict[str
 # --------------------------------------------------------------------------- tables
 
 
-def _summaries(out: Path, point: str | Path) -> list[dict[str, Any]]:
-    """The finished runs of a point (a point id under ``out``, or its directory)."""
-    runs = sorted((point if isinstance(point, Path) else out / "runs" / point).glob("r*"))
+def _summaries(out: Path, point: str | Path | tuple[Path, int]) -> list[dict[str, Any]]:
+    """The finished runs of a point: a point id under ``out``, its directory, or its
+    directory and how many realisations (r0, r1, ...) to take."""
+    limit = None
+    if isinstance(point, tuple):
+        point, limit = point
+    where = point if isinstance(point, Path) else out / "runs" / point
+    runs = sorted(where.glob("r*"), key=lambda r: int(r.name[1:]))[:limit]
     found = [read_summary(r) for r in runs]
     return [s for s in found if s is not None]
 
@@ -225,16 +233,35 @@ _VARIANT_HEAD = ("| variant | runs (HS + hybrid) | HS-only breakdown (MPa) | HS-
 
 
 def convergence_table(out: Path) -> str:
-    return _rows(out, [(v, f"hs-only-{v}", f"hybrid-{v}") for v, _ in VARIANTS])
+    """The variants against the defaults study's runs of the same seeds."""
+    n = _realisations(out)
+    defaults = out.parent / "defaults" / "runs"
+    rows = [("default (2 mm, mass scaling 1, damping 0.8, 0.01 ms)",
+             (defaults / "hs-only", n), (defaults / "hybrid", n))]
+    rows += [(v, f"hs-only-{v}", f"hybrid-{v}") for v, _ in VARIANTS + FINE_VARIANTS
+             if (out / "runs" / f"hs-only-{v}").is_dir()]
+    return _rows(out, rows)
+
+
+def _realisations(out: Path) -> int:
+    """How many realisations a study planned (its sweep.json), default 5."""
+    import json
+
+    plan = out / "sweep.json"
+    if not plan.is_file():
+        return 5
+    points = json.loads(plan.read_text()).get("points", [])
+    return max((len(p.get("seeds", p.get("runs", []))) for p in points), default=5) or 5
 
 
 def closure_table(out: Path) -> str:
     """Hybrid rows against the HS-only runs of the convergence study's default."""
-    default = out.parent / "convergence" / "runs"
-    rows = [("broken a_res = a0 = 0.2 um", default / "hs-only-default",
-             default / "hybrid-default")]
-    rows += [(f"broken a_res = {a:g} um", default / "hs-only-default",
-              out / "runs" / f"hybrid-{a:g}um") for a in CLOSURE_APERTURES_UM]
+    n = _realisations(out)
+    defaults = out.parent / "defaults" / "runs"
+    hs_only = (defaults / "hs-only", n)
+    rows = [("broken a_res = a0 = 0.2 um", hs_only, (defaults / "hybrid", n))]
+    rows += [(f"broken a_res = {a:g} um", hs_only, out / "runs" / f"hybrid-{a:g}um")
+             for a in CLOSURE_APERTURES_UM]
     return _rows(out, rows)
 
 
@@ -247,12 +274,12 @@ def defaults_table(out: Path) -> str:
 STUDIES = {
     "walls": (walls_sweep, 5, walls_table,
               "Breakdown pressure (MPa) by well-wall connection"),
+    "defaults": (defaults_sweep, 10, defaults_table,
+                 "Case 2, 90 ml/min with the defaults"),
     "convergence": (convergence_sweep, 5, convergence_table,
                     "Case 2, 90 ml/min: answers against the numerical knobs"),
     "closure": (closure_sweep, 5, closure_table,
                 "Case 2, 90 ml/min: residual aperture of broken grain boundaries"),
-    "defaults": (defaults_sweep, 10, defaults_table,
-                 "Case 2, 90 ml/min with the defaults"),
 }
 
 

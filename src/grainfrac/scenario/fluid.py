@@ -34,7 +34,10 @@ class FluidSpec(StrictModel):
     ``a_res <= a0 < a_max``. ``permeable_sides`` are held at
     ``boundary_pressure_MPa`` (paper Fig. 9c: the slab edges); the borehole is
     the well. ``well_compressibility_per_GPa`` is the compressibility of the
-    well's fluid volume, by default that of water (1 / 2 GPa).
+    well's fluid volume, by default that of water (1 / 2 GPa). ``well_wall`` is how the
+    well meets the grain boundaries ending on its wall (:data:`grainfrac.physics.flow.
+    WELL_WALLS`); by default ``sealed``: an intact wall of tight boundaries that a wall
+    contact opens to the well once it cracks (decision record 0017).
     """
 
     viscosity_Pa_s: float = Field(1.0e-3, gt=0, description="dynamic viscosity mu [Pa s]")
@@ -54,7 +57,7 @@ class FluidSpec(StrictModel):
         0.5, gt=0, description="compressibility of the well fluid volume [1/GPa]"
     )
     well_wall: Literal["wet", "sealed", "flow_knots"] = Field(
-        "wet", description="how the well meets the grain boundaries that end on its wall: "
+        "sealed", description="how the well meets the grain boundaries that end on its wall: "
         "'wet' (wall contacts take the well pressure from the start), 'sealed' (pressure on "
         "the wall; a wall contact takes fluid once it cracks), 'flow_knots' (3DEC: fluid "
         "into the wall contacts only, no pressure on the wall)")
