@@ -140,7 +140,7 @@ def test_the_mouths_survive_a_checkpoint(assembly):
 
 def test_scenario_names_the_well_wall_and_its_choices():
     base = {"stages": [{"kind": "equilibrate"}]}
-    assert Scenario.model_validate(base).fluid.well_wall == "wet"
+    assert Scenario.model_validate(base).fluid.well_wall == "sealed"
     with pytest.raises(ValueError, match="well_wall"):
         Scenario.model_validate({**base, "fluid": {"well_wall": "dry"}})
 
