@@ -37,7 +37,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from grainfrac.analysis.stats import difference, summarise
+from grainfrac.analysis.stats import difference, slope, summarise
 from grainfrac.studies.sweep import plan_sweep, read_summary, run_sweeps
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -105,8 +105,10 @@ def _with_inject_index(base: str, paths: dict[str, Any]) -> dict[str, Any]:
     return {k.replace("stages.-1.", f"stages.{last}."): v for k, v in paths.items()}
 
 
-def convergence_sweep(realisations: int, wall: str, fine: bool = False) -> dict[str, Any]:
+def convergence_sweep(realisations: int, wall: str, fine: bool = False,
+                      only: tuple[str, ...] = ()) -> dict[str, Any]:
     variants = VARIANTS + FINE_VARIANTS if fine else VARIANTS
+    variants = tuple(v for v in variants if not only or v[0] in only)
     points = [{"id": f"{run}-{variant}", "base": base,
                "set": {"fluid.well_wall": wall, **_with_inject_index(base, paths)}}
               for variant, paths in variants for run, base in RUNS.items()]
@@ -189,6 +191,25 @@ def walls_table(out: Path) -> str:
         runs = sum(len(_summaries(out, p)) for p in [f"{wall}-{c}-18" for c in CASES]
                    + [f"{wall}-case2-{r:g}" for r in RATES[1:]])
         lines.append(f"| `{wall}` | {runs} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def walls_rate_table(out: Path) -> str:
+    """Least-squares slope of the Case 2 breakdown on the rate, over individual runs."""
+    lines = ["| well wall | runs | breakdown slope (MPa per 10 ml/min) | 18 -> 90 ml/min (MPa) |",
+             "|---|---|---|---|"]
+    for wall in WALLS:
+        rate, pressure = [], []
+        for r in RATES:
+            point = f"{wall}-case2-{r:g}" if r != RATES[0] else f"{wall}-case2-18"
+            for s in _summaries(out, point):
+                rate.append(r)
+                pressure.append(s.get("breakdown_pressure_MPa"))
+        trend = slope(rate, pressure)
+        cell = (f"{10 * trend.estimate:+.2f} [{10 * trend.low:+.2f}, {10 * trend.high:+.2f}]"
+                if trend.defined else "-")
+        span = (RATES[-1] - RATES[0]) * trend.estimate
+        lines.append(f"| `{wall}` | {len(rate)} | {cell} | {span:+.1f} |")
     return "\n".join(lines)
 
 
@@ -296,7 +317,9 @@ def page(out: Path) -> str:
             continue
         parts += [f"## {title}", "", table(out / name), ""]
         if name == "walls":
-            parts += ["Energy books and fracture counts of the same runs:", "",
+            parts += ["Case 2 breakdown against injection rate (the paper: it rises "
+                      "with rate):", "", walls_rate_table(out / name), "",
+                      "Energy books and fracture counts of the same runs:", "",
                       walls_energy_table(out / name), ""]
         parts += ["Regenerate (runs already present are reused):", "", "```bash",
                   f"python benchmarks/breakdown_gap.py {name} --out studies/breakdown-gap",
@@ -315,6 +338,9 @@ def main(argv: list[str] | None = None) -> int:
                         "default)")
     parser.add_argument("--fine", action="store_true",
                         help="convergence: add the 1 mm zones (~8x the time per run)")
+    parser.add_argument("--variants", default="",
+                        help="convergence: only these variants (comma-separated), e.g. "
+                        "to run the acceptance rows first")
     parser.add_argument("--workers", type=int, default=min(2, os.cpu_count() or 1))
     parser.add_argument("--docs", type=Path, default=None, help="write the page here")
     args = parser.parse_args(argv)
@@ -324,7 +350,9 @@ def main(argv: list[str] | None = None) -> int:
         if wall is None:
             from grainfrac.scenario import FluidSpec
             wall = FluidSpec().well_wall
-        config = build(args.realisations or default_n, wall, args.fine)
+        extra = {"only": tuple(filter(None, args.variants.split(",")))} \
+            if args.study == "convergence" else {}
+        config = build(args.realisations or default_n, wall, args.fine, **extra)
         plan = plan_sweep(config, base_dir=EXAMPLES)
         start = time.perf_counter()
         print(f"{args.study}: {len(plan.runs)} runs into {args.out / args.study}", flush=True)
