@@ -91,6 +91,15 @@ VARIANTS: tuple[tuple[str, dict[str, Any]], ...] = (
     ("damping-0.3", {"numerics.local_damping": 0.3}),
     ("fluid-step-half", {"stages.-1.time_step_ms": 0.005}),
 )
+# Contacts that own their fracture energy: linear softening with Irwin's
+# G = K_IC^2 (1 - nu^2) / E of the laboratory targets (K_IC 1.35 MPa m^0.5, E 17.13
+# GPa, nu 0.24: 100 J/m2) on every like pair, G_II = G_I; Table 2 is brittle (G = 0).
+IRWIN_G_J_PER_M2 = 100.0
+PHYSICS_VARIANTS: tuple[tuple[str, dict[str, Any]], ...] = (
+    ("softening-irwin", {f"rock.contacts.{pair}.{kind}_fracture_energy_J_per_m2":
+                         IRWIN_G_J_PER_M2
+                         for pair in ("Q-Q", "F-F", "M-M") for kind in ("tensile", "shear")}),
+)
 # 1 mm zones: ~4x the elements and ~1.4x the steps of the 2 mm default (~8x the time);
 # run by ``convergence --fine``.
 FINE_VARIANTS: tuple[tuple[str, dict[str, Any]], ...] = (
@@ -108,7 +117,7 @@ def _with_inject_index(base: str, paths: dict[str, Any]) -> dict[str, Any]:
 def convergence_sweep(realisations: int, wall: str, fine: bool = False,
                       only: tuple[str, ...] = ()) -> dict[str, Any]:
     variants = VARIANTS + FINE_VARIANTS if fine else VARIANTS
-    variants = tuple(v for v in variants if not only or v[0] in only)
+    variants = tuple(v for v in variants + PHYSICS_VARIANTS if not only or v[0] in only)
     points = [{"id": f"{run}-{variant}", "base": base,
                "set": {"fluid.well_wall": wall, **_with_inject_index(base, paths)}}
               for variant, paths in variants for run, base in RUNS.items()]
@@ -259,7 +268,8 @@ def convergence_table(out: Path) -> str:
     defaults = out.parent / "defaults" / "runs"
     rows = [("default (2 mm, mass scaling 1, damping 0.8, 0.01 ms)",
              (defaults / "hs-only", n), (defaults / "hybrid", n))]
-    rows += [(v, f"hs-only-{v}", f"hybrid-{v}") for v, _ in VARIANTS + FINE_VARIANTS
+    rows += [(v, f"hs-only-{v}", f"hybrid-{v}")
+             for v, _ in VARIANTS + FINE_VARIANTS + PHYSICS_VARIANTS
              if (out / "runs" / f"hs-only-{v}").is_dir()]
     return _rows(out, rows)
 
