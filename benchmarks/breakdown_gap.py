@@ -332,7 +332,8 @@ def page(out: Path) -> str:
                       "Energy books and fracture counts of the same runs:", "",
                       walls_energy_table(out / name), ""]
         parts += ["Regenerate (runs already present are reused):", "", "```bash",
-                  f"python benchmarks/breakdown_gap.py {name} --out studies/breakdown-gap",
+                  f"python benchmarks/breakdown_gap.py {name} --out studies/breakdown-gap"
+                  + (" --fine" if name == "convergence" else ""),
                   "python benchmarks/breakdown_gap.py tables --out studies/breakdown-gap "
                   "--docs docs/validation/breakdown-gap.md", "```", ""]
     return "\n".join(parts)
