@@ -60,6 +60,7 @@ name = "tiny-hs"
 seed = 3
 specimen = { shape = "slab", width_mm = 40.0, height_mm = 40.0, borehole_diameter_mm = 10.0 }
 stress = { case = "case2" }
+fluid = { well_wall = "wet" }
 stages = [ { kind = "equilibrate" },
            { kind = "inject", rate_ml_per_min = 90.0, duration_ms = 4.0, time_step_ms = 0.1 } ]
 
