@@ -30,6 +30,7 @@ Studies (5 grain realisations per point unless ``--realisations``):
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import sys
 import time
@@ -276,8 +277,6 @@ def convergence_table(out: Path) -> str:
 
 def _realisations(out: Path) -> int:
     """How many realisations a study planned (its sweep.json), default 5."""
-    import json
-
     plan = out / "sweep.json"
     if not plan.is_file():
         return 5

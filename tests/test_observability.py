@@ -100,34 +100,13 @@ def _file(tmp_path, **changes):
 
 
 def _run_cli_until(tmp_path, out, stages, signum, enough, **changes):
-    """``grainfrac run`` in a subprocess, progress lines every chunk on stderr; send
-    ``signum`` once ``enough(lines)``; return (return code, stderr)."""
-    import os
-    import subprocess
-    import sys
-    import time
+    """``grainfrac run`` of the tiny scenario, signalled once ``enough(lines)``; return
+    (return code, stderr and stdout)."""
+    from cli_interrupt import run_cli_until
 
-    path = _file(tmp_path, stages=stages, **changes)
-    env = {**os.environ, "GRAINFRAC_LOG_EVERY_S": "0.001"}
-    proc = subprocess.Popen([sys.executable, "-m", "grainfrac.cli", "run", str(path), "--out",
-                             str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True, env=env)
-    seen: list[str] = []
-    try:
-        deadline = time.monotonic() + 600
-        while time.monotonic() < deadline:
-            line = proc.stderr.readline()
-            if not line:
-                break
-            seen.append(line)
-            if enough(seen):
-                proc.send_signal(signum)
-                break
-        rest_out, rest_err = proc.communicate(timeout=600)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-    return proc.returncode, "".join(seen) + rest_err + rest_out
+    code, stderr, stdout = run_cli_until(_file(tmp_path, stages=stages, **changes), out,
+                                         signum, enough)
+    return code, stderr + stdout
 
 
 def _csv(path):

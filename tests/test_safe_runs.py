@@ -326,37 +326,23 @@ def test_sigint_mid_injection_checkpoints_and_resume_gives_the_uninterrupted_res
     """``grainfrac run`` off a terminal: progress lines on stderr while it runs; SIGINT
     in the injection stops it with a checkpoint and the resume command; the resumed
     run's summary and cracks are those of an uninterrupted run."""
-    import os
     import signal
-    import time
+
+    from cli_interrupt import run_cli_until
 
     stages = [{"kind": "equilibrate", "max_steps": 400},
               {"kind": "inject", "rate_ml_per_min": 90.0, "duration_ms": 1.0,
                "time_step_ms": 0.01}]
-    path = _file(tmp_path, stages=stages)
     out = tmp_path / "interrupted"
-    env = {**os.environ, "GRAINFRAC_LOG_EVERY_S": "0.001"}
-    proc = subprocess.Popen([sys.executable, "-m", "grainfrac.cli", "run", str(path), "--out",
-                             str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True, env=env)
-    seen: list[str] = []
-    try:
-        deadline = time.monotonic() + 600
-        while time.monotonic() < deadline:
-            line = proc.stderr.readline()
-            if not line:
-                break
-            seen.append(line)
-            if "stage 2/2 inject:" in line and "t = " in line and len(
-                    [s for s in seen if "inject:" in s]) >= 5:
-                proc.send_signal(signal.SIGINT)
-                break
-        rest_out, rest_err = proc.communicate(timeout=600)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-    stderr = "".join(seen) + rest_err
-    assert proc.returncode == 130, stderr + rest_out
+
+    def enough(seen: list[str]) -> bool:
+        line = seen[-1]
+        return "stage 2/2 inject:" in line and "t = " in line and len(
+            [s for s in seen if "inject:" in s]) >= 5
+
+    code, stderr, stdout = run_cli_until(_file(tmp_path, stages=stages), out,
+                                         signal.SIGINT, enough)
+    assert code == 130, stderr + stdout
     assert "Traceback" not in stderr
     assert f"grainfrac run --resume --out {out}" in stderr
     assert checkpoint_path(out).is_file() and not (out / "summary.json").exists()

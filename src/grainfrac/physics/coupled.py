@@ -143,13 +143,14 @@ class HydroMechanicalSolver:
         self._pores: tuple[int, _Pores] | None = None
         self._apply_pressure()
 
-    def _conducting_network(self) -> flow.FlowNetwork:
+    def _conducting_network(self, aperture: np.ndarray | None = None) -> flow.FlowNetwork:
         """The network less the pipes of grain-interior faces still bonded, with the
-        mouths of a sealed wall that have opened (they stay open)."""
+        mouths of a sealed wall that have opened (they stay open). ``aperture``: the
+        current pore apertures, if the caller has them."""
         bonded = self.mechanics.bonded[:self.assembly.mesh.n_contacts]
         if self._all_pipes.mouths is not None:
-            self._all_pipes = flow.open_mouths(self._all_pipes, self.aperture(), bonded,
-                                               self.fluid)
+            aperture = self.aperture() if aperture is None else aperture
+            self._all_pipes = flow.open_mouths(self._all_pipes, aperture, bonded, self.fluid)
         return flow.conducting(self._all_pipes, bonded)
 
     @property
@@ -439,10 +440,11 @@ class HydroMechanicalSolver:
         """Apertures, compliances and borehole void of the current mechanical state."""
         count = self.mechanics.step_count
         if self._pores is None or self._pores[0] != count:
-            self.network = self._conducting_network()
+            aperture = self.aperture()
+            self.network = self._conducting_network(aperture)
             cracks = self._open_cracks()
             local, shared = self.crack_compliance(cracks)
-            self._pores = (count, _Pores(self.aperture(), self.pore_compliance(cracks), local,
+            self._pores = (count, _Pores(aperture, self.pore_compliance(cracks), local,
                                          shared, self.well_void()))
         return self._pores[1]
 
