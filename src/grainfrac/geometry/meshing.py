@@ -114,6 +114,24 @@ class GrainMesh:
     def n_interfaces(self) -> int:
         return len(self.interface_grains)
 
+    # The flow-facing interface shared with the 3D GrainMesh3D.
+    @property
+    def fluid_node_x(self) -> np.ndarray:
+        return self.fluid_node_xy
+
+    @property
+    def has_borehole(self) -> bool:
+        return "borehole" in self.boundary_faces
+
+    @property
+    def borehole_radius(self) -> float:
+        return self.grains.outline.borehole_radius
+
+    @property
+    def borehole_length(self) -> float:
+        """The slab thickness: the borehole runs through the plane-strain slice (m)."""
+        return self.thickness if self.has_borehole else 0.0
+
     def element_areas(self) -> np.ndarray:
         """Signed element areas (m2); positive for counter-clockwise elements."""
         return simplex_measure(self.node_xy, self.element_nodes)

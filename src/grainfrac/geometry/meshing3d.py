@@ -143,6 +143,53 @@ class GrainMesh3D:
     def thickness(self) -> float:
         return 1.0
 
+    # The flow-facing interface shared with the 2D GrainMesh (grainfrac.physics.flow
+    # and the coupling read these names in either dimension).
+    @property
+    def fluid_node_x(self) -> np.ndarray:
+        return self.flow.node_x
+
+    @property
+    def fluid_node_sets(self) -> dict[str, np.ndarray]:
+        return self.flow.node_sets
+
+    @property
+    def contact_fluid_node(self) -> np.ndarray:
+        return self.flow.contact_fluid_node
+
+    @property
+    def pipe_nodes(self) -> np.ndarray:
+        return self.flow.pipe_nodes
+
+    @property
+    def pipe_contacts(self) -> np.ndarray:
+        return self.flow.pipe_contacts
+
+    @property
+    def pipe_length(self) -> np.ndarray:
+        return self.flow.pipe_length
+
+    @property
+    def pipe_width(self) -> np.ndarray:
+        return self.flow.pipe_width
+
+    @property
+    def pipe_interface(self) -> np.ndarray:
+        return self.flow.pipe_interface
+
+    @property
+    def has_borehole(self) -> bool:
+        return self.grains.solid.has_borehole
+
+    @property
+    def borehole_radius(self) -> float:
+        return self.grains.solid.borehole_radius
+
+    @property
+    def borehole_length(self) -> float:
+        """Length of the borehole along z (m): the solid's extent along its axis."""
+        return float(self.grains.solid.extent[2]) if self.has_borehole else 0.0
+
     def element_volumes(self) -> np.ndarray:
         """Signed tetrahedron volumes (m3)."""
         return simplex_measure(self.node_x, self.element_nodes)
