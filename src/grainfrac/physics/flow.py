@@ -159,13 +159,13 @@ def build_flow_network(
         raise ValueError(f"sealed has {len(sealed)} entries for {mesh.n_contacts} sub-contacts")
     if wall not in WELL_WALLS:
         raise ValueError(f"wall: must be one of {', '.join(WELL_WALLS)} (got {wall!r})")
-    n_nodes = len(mesh.fluid_node_xy)
+    n_nodes = len(mesh.fluid_node_x)
     unknown = np.arange(n_nodes)
     well_unknown = -1
     well_volume = 0.0
     mouths = None
     wall_nodes = mesh.fluid_node_sets.get("borehole", np.zeros(0, dtype=np.int64))
-    if well and "borehole" in mesh.boundary_faces:
+    if well and mesh.has_borehole:
         if wall == "sealed":
             well_unknown = n_nodes
             unknown = np.arange(n_nodes)
