@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 import shapely
@@ -113,6 +114,8 @@ class GrainMesh:
     @property
     def n_interfaces(self) -> int:
         return len(self.interface_grains)
+
+    dimension: ClassVar[int] = 2
 
     # The flow-facing interface shared with the 3D GrainMesh3D.
     @property

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 from scipy.spatial import Delaunay
@@ -142,6 +143,8 @@ class GrainMesh3D:
     @property
     def thickness(self) -> float:
         return 1.0
+
+    dimension: ClassVar[int] = 3
 
     # The flow-facing interface shared with the 2D GrainMesh (grainfrac.physics.flow
     # and the coupling read these names in either dimension).

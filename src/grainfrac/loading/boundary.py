@@ -12,6 +12,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from grainfrac.loading.boundary3d import far_field_stress_forces3d, normal_pressure_forces3d
+
 if TYPE_CHECKING:  # loads are plain arrays; the mesher is needed only to build them
     from grainfrac.geometry.meshing import GrainMesh
 
@@ -62,7 +64,10 @@ def side_traction_forces(mesh: GrainMesh, side: str, traction: np.ndarray) -> np
 
 
 def normal_pressure_forces(mesh: GrainMesh, side: str, pressure: float) -> np.ndarray:
-    """Nodal forces (N) of a pressure (Pa, compression positive) normal to a side."""
+    """Nodal forces (N) of a pressure (Pa, compression positive) normal to a side
+    (a 3D mesh: :func:`grainfrac.loading.boundary3d.normal_pressure_forces3d`)."""
+    if mesh.dimension == 3:
+        return normal_pressure_forces3d(mesh, side, pressure)
     faces = mesh.boundary_faces[side]
     out = np.zeros((mesh.n_nodes, 2))
     half = -0.5 * pressure * (faces.length * mesh.thickness)[:, None] * faces.normal
@@ -71,8 +76,13 @@ def normal_pressure_forces(mesh: GrainMesh, side: str, pressure: float) -> np.nd
     return out
 
 
-def far_field_stress_forces(mesh: GrainMesh, sigma_x: float, sigma_y: float) -> np.ndarray:
-    """Nodal forces of compressive far-field stresses on a rectangle's outer sides (Pa)."""
+def far_field_stress_forces(mesh: GrainMesh, sigma_x: float, sigma_y: float,
+                            sigma_z: float = 0.0) -> np.ndarray:
+    """Nodal forces of compressive far-field stresses on a rectangle's outer sides (Pa);
+    on a 3D box's six faces with ``sigma_z`` on its top and bottom
+    (:func:`grainfrac.loading.boundary3d.far_field_stress_forces3d`)."""
+    if mesh.dimension == 3:
+        return far_field_stress_forces3d(mesh, sigma_x, sigma_y, sigma_z)
     out = np.zeros((mesh.n_nodes, 2))
     for side, s in (("left", sigma_x), ("right", sigma_x), ("bottom", sigma_y), ("top", sigma_y)):
         out += normal_pressure_forces(mesh, side, s)

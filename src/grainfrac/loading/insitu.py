@@ -37,16 +37,18 @@ def initialise_in_situ(
     mesh: GrainMesh,
     sigma_x: float,
     sigma_y: float,
+    sigma_z: float = 0.0,
     *,
     ratio: float = 1e-5,
     max_steps: int = 200_000,
 ) -> InSituResult:
-    """Apply compressive far-field stresses (Pa) to a rectangle's sides and equilibrate.
+    """Apply compressive far-field stresses (Pa) to a rectangle's sides (a 3D box's six
+    faces, ``sigma_z`` on top and bottom) and equilibrate.
 
     The tractions are added to ``solver.loads.external`` and stay applied.
     Returns the steps taken and the final unbalanced-force ratio.
     """
-    solver.loads.external += far_field_stress_forces(mesh, sigma_x, sigma_y)
+    solver.loads.external += far_field_stress_forces(mesh, sigma_x, sigma_y, sigma_z)
     start = solver.step_count
     solver.allow_failure = False
     try:

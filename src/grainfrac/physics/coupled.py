@@ -27,7 +27,7 @@ from grainfrac.physics.solver import (
 )
 
 # Open-crack compliance A L / E' times this factor (Sneddon's mean opening of a
-# pressurised crack is (pi/4) p L / E'). Measured on the default hybrid run and a
+# pressurised plane-strain crack is (pi/2) p L / E', see penny_crack_length). Measured on the default hybrid run and a
 # small HS run at a 0.1 ms step: 1.5 let fluid pile up and spike the well
 # pressure by 3 MPa when a crack closed; 0.5 started to oscillate (1.7 MPa
 # jumps); 1.0 is smooth in both.
@@ -124,16 +124,16 @@ class HydroMechanicalSolver:
         self.crack_modulus = float(np.min(youngs / (1.0 - nu**2)))
         mesh = assembly.mesh
         # Opening compliance of the borehole (m3/Pa): a pressurised hole of radius a in
-        # an elastic plane widens by p a / (2 G) (Lame), so its void grows by
-        # pi a^2 t / G per Pa; G is the grains' area-weighted shear modulus.
+        # an elastic plane widens by p a / (2 G) (Lame; the same in plane stress, so
+        # also for a 3D slab's hole), so its void grows by pi a^2 l / G per Pa over
+        # its length l; G is the grains' volume-weighted shear modulus.
         shear_modulus = float(np.average(m.mu, weights=m.element_area))
-        self.wall_compliance = (math.pi * mesh.grains.outline.borehole_radius**2
-                                * mesh.thickness / shear_modulus
+        self.wall_compliance = (math.pi * mesh.borehole_radius**2
+                                * mesh.borehole_length / shear_modulus
                                 if network.wall_pressurised else 0.0)
-        self._wall_nodes = np.zeros(len(mesh.fluid_node_xy), dtype=bool)
+        self._wall_nodes = np.zeros(len(mesh.fluid_node_x), dtype=bool)
         self._wall_nodes[mesh.fluid_node_sets.get("borehole", np.zeros(0, np.int64))] = True
-        outline = mesh.grains.outline
-        self._well_diameter = 2.0 * outline.borehole_radius
+        self._well_diameter = 2.0 * mesh.borehole_radius
         self._contact_grains = mesh.interface_grains[mesh.contact_interface]
         self._n_grains = int(self._contact_grains.max()) + 1
         self.history = CoupledHistory()
@@ -199,9 +199,10 @@ class HydroMechanicalSolver:
         compression than a step may add in pressure (:func:`pressure_jump_limit`),
         opens by dp / kn. An open crack, or a broken contact that the next
         pressure rise will open (at a crack tip), opens against the grains: a
-        pressurised crack of length L in plane strain opens by about
-        (pi/4) dp L / E' on average (Sneddon), so its sub-contacts get
-        ``CRACK_COMPLIANCE_FACTOR`` A L / E'. L is measured: open sub-contacts
+        pressurised crack of length L in plane strain opens by
+        (pi/2) dp L / E' on average (Sneddon), so its sub-contacts get
+        ``CRACK_COMPLIANCE_FACTOR`` A L / E' (in 3D L is :func:`penny_crack_length`
+        of the crack's size). L is measured: open sub-contacts
         joined by pipes form a crack, whose length is the sum of its pipes, plus
         the well diameter if it reaches the wall. Understating the compliance
         makes the staggered coupling unstable (a crack tip treated as a spring
@@ -260,7 +261,10 @@ class HydroMechanicalSolver:
         area = m.model.contact_area
         is_open, length, crack = cracks or self._open_cracks()
         spring = area / m.model.normal_stiffness
-        zone = CRACK_LOCAL_ZONES * self.assembly.mesh.zone_size
+        mesh = self.assembly.mesh
+        zone = CRACK_LOCAL_ZONES * mesh.zone_size
+        if mesh.dimension == 3:
+            zone = penny_crack_length(zone)
         zone_crack = CRACK_COMPLIANCE_FACTOR * area * zone / self.crack_modulus
         local = self._per_unknown(np.where(is_open, np.maximum(spring, zone_crack), spring))
         if not is_open.any():
@@ -339,18 +343,26 @@ class HydroMechanicalSolver:
         is_open = ~m.bonded & (m.sigma_n < pressure_jump_limit(m.contact_pressure))
         is_open &= ~self._on_loose_grain(m.bonded)
         mesh = self.assembly.mesh
-        n = len(mesh.fluid_node_xy)
+        n = len(mesh.fluid_node_x)
         open_pipe = is_open[mesh.pipe_contacts[:, 0]] & is_open[mesh.pipe_contacts[:, 1]]
         ends = mesh.pipe_nodes[open_pipe]
         graph = sp.coo_matrix((np.ones(len(ends)), (ends[:, 0], ends[:, 1])), shape=(n, n))
         _, label = connected_components(graph, directed=False)
-        length = np.bincount(label[ends[:, 0]], weights=mesh.pipe_length[open_pipe],
-                             minlength=label.max() + 1)
+        contact_label = label[mesh.contact_fluid_node]
         touches = np.zeros(label.max() + 1, dtype=bool)
         touches[label[self._wall_nodes]] = True
-        crack_length = length + np.where(touches, self._well_diameter, 0.0)
-        crack_length = np.maximum(crack_length, mesh.zone_size)
-        contact_label = label[mesh.contact_fluid_node]
+        if mesh.dimension == 3:
+            # A crack is a surface: its size is that of the disc of its open area.
+            area = np.bincount(contact_label[is_open], weights=m.model.contact_area[is_open],
+                               minlength=label.max() + 1)
+            diameter = 2.0 * np.sqrt(area / math.pi) + np.where(touches, self._well_diameter,
+                                                                 0.0)
+            crack_length = penny_crack_length(np.maximum(diameter, mesh.zone_size))
+        else:
+            length = np.bincount(label[ends[:, 0]], weights=mesh.pipe_length[open_pipe],
+                                 minlength=label.max() + 1)
+            crack_length = length + np.where(touches, self._well_diameter, 0.0)
+            crack_length = np.maximum(crack_length, mesh.zone_size)
         return _OpenCracks(is_open, np.where(is_open, crack_length[contact_label], 0.0),
                            contact_label)
 
@@ -555,6 +567,20 @@ class HydroMechanicalSolver:
             initial_aperture=f.initial_aperture,
             held_void=start + p * storage, storage=storage,
             ceiling=np.where(sealed, np.inf, p))
+
+
+def penny_crack_length(diameter):
+    """The 2D crack length (m) whose compliance rule gives a penny-shaped crack of
+    ``diameter`` (m) the same fraction of its Sneddon opening as a 2D crack gets.
+
+    Sneddon's mean opening under a pressure p is (pi / 2) p L / E' for a plane-strain
+    crack of length L, and 16 p R / (3 pi E') = 8 p D / (3 pi E') for a penny of
+    diameter D = 2R. The 2D rule A L / E' (``CRACK_COMPLIANCE_FACTOR`` 1) is 2 / pi of
+    the former, so the penny's length is (2 / pi) (8 / (3 pi)) D = 16 D / (3 pi^2),
+    0.54 D. A crack that is not a disc (a radial crack across a slab) is taken as the
+    disc of its area, which overstates the opening of an elongated one.
+    """
+    return 16.0 / (3.0 * math.pi**2) * np.asarray(diameter)
 
 
 def pressure_jump_limit(pressure):

@@ -271,9 +271,21 @@ def conducting(network: FlowNetwork, bonded: np.ndarray | None = None) -> FlowNe
 
 
 def borehole_wall_loop(mesh: GrainMesh) -> np.ndarray:
-    """The borehole wall as node pairs (k, 3): each face's start and end node and the
-    start node of the face that begins where it ends (its twin node across a crack
-    mouth, or the same node). Fixed by the mesh; :func:`borehole_volume` walks it."""
+    """The borehole wall as :func:`borehole_volume` walks it, fixed by the mesh.
+
+    2D: node triples (k, 3), each face's start and end node and the start node of
+    the face that begins where it ends (its twin node across a crack mouth, or the
+    same node). 3D: the wall's surface triangles (t, 3), wound so that their normal
+    points away from the borehole axis (into the rock).
+    """
+    if mesh.dimension == 3:
+        tri = mesh.surface_triangles["borehole"].copy()
+        p = mesh.node_x[tri]
+        normal = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+        radial = p.mean(axis=1)[:, :2]
+        inward = np.einsum("ij,ij->i", normal[:, :2], radial) < 0.0
+        tri[inward] = tri[inward][:, ::-1]
+        return tri
     faces = mesh.boundary_faces["borehole"].nodes
     start, end = faces[:, 0], faces[:, 1]
     gap = mesh.node_xy[end][:, None, :] - mesh.node_xy[start][None, :, :]
@@ -283,19 +295,31 @@ def borehole_wall_loop(mesh: GrainMesh) -> np.ndarray:
 
 def borehole_volume(mesh: GrainMesh, displacement: np.ndarray | None = None,
                     wall_loop: np.ndarray | None = None) -> float:
-    """Void volume (m3) of the borehole: the area of its wall polygon, with the wall
-    nodes moved by ``displacement`` (n_nodes, 2) if given, times the slab thickness.
-    ``wall_loop`` is :func:`borehole_wall_loop` (computed here if not given; callers
-    that ask at every step pass it).
+    """Void volume (m3) of the borehole with the wall nodes moved by ``displacement``
+    (n_nodes, d) if given. ``wall_loop`` is :func:`borehole_wall_loop` (computed here
+    if not given; callers that ask at every step pass it).
 
-    Where a grain boundary meets the wall its two grains have nodes of their own
-    at the same place; the polygon closes across that crack mouth (whose own void
-    is the contact's aperture). Summed over the faces alone, the shoelace formula
-    lost r x the mouth's opening: a mouth opening by 2.3 um took 0.55 mJ of well
-    fluid work on the grains that the well's void did not show (lab HS, 5 ml/min,
-    seed 8; 1.16x the pumped energy on the grains over the run).
+    2D: the area of the wall polygon times the slab thickness. Where a grain boundary
+    meets the wall its two grains have nodes of their own at the same place; the
+    polygon closes across that crack mouth (whose own void is the contact's
+    aperture). Summed over the faces alone, the shoelace formula lost r x the mouth's
+    opening: a mouth opening by 2.3 um took 0.55 mJ of well fluid work on the grains
+    that the well's void did not show (lab HS, 5 ml/min, seed 8; 1.16x the pumped
+    energy on the grains over the run).
+
+    3D: the divergence theorem with the field F = (x, y, 0) / 2 (div F = 1), which has
+    no flux through the borehole's flat ends: V = sum over the wall triangles of
+    F(centroid) . S (S the triangle's area vector out of the hole), exact for flat
+    triangles. A crack mouth's gap between two grains' wall triangles is not closed
+    here: its void is that of the mouth's sub-contacts.
     """
     loop = borehole_wall_loop(mesh) if wall_loop is None else wall_loop
+    if mesh.dimension == 3:
+        x = mesh.node_x if displacement is None else mesh.node_x + displacement[:mesh.n_nodes]
+        p = x[loop]
+        area_vector = 0.5 * np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+        centroid = p.mean(axis=1)
+        return float(0.5 * np.sum(centroid[:, :2] * area_vector[:, :2]))
     start, end, following = loop[:, 0], loop[:, 1], loop[:, 2]
     xy = mesh.node_xy if displacement is None else mesh.node_xy + displacement[:len(mesh.node_xy)]
     a = np.concatenate((xy[start], xy[end]))
