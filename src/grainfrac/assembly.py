@@ -75,6 +75,17 @@ class FissureSpec(StrictModel):
         "a borehole, < half the smallest side")
 
 
+def with_3d_slab_thickness(data):
+    """A specimen or scenario table whose 3D slab gets the 3D default thickness if it
+    gives none: the 2D slab's default is a plane-strain slice, not a 3D slab."""
+    if isinstance(data, dict) and data.get("dimension") == 3:
+        spec = data.get("specimen", {"shape": "slab"})
+        if isinstance(spec, dict) and spec.get("shape", "slab") == "slab" \
+                and "thickness_mm" not in spec:
+            data = {**data, "specimen": {**spec, "thickness_mm": SLAB_THICKNESS_3D_MM}}
+    return data
+
+
 class SpecimenConfig(StrictModel):
     """Everything needed to build an assembly: ``grainfrac specimen SPEC.toml``."""
 
@@ -93,14 +104,7 @@ class SpecimenConfig(StrictModel):
     @model_validator(mode="before")
     @classmethod
     def _slab_thickness_3d(cls, data):
-        # The 2D slab's default thickness is a plane-strain slice; a 3D slab
-        # without one gets the 3D default.
-        if isinstance(data, dict) and data.get("dimension") == 3:
-            spec = data.get("specimen", {"shape": "slab"})
-            if isinstance(spec, dict) and spec.get("shape") == "slab" \
-                    and "thickness_mm" not in spec:
-                data = {**data, "specimen": {**spec, "thickness_mm": SLAB_THICKNESS_3D_MM}}
-        return data
+        return with_3d_slab_thickness(data)
 
     @model_validator(mode="after")
     def _fits(self) -> SpecimenConfig:

@@ -359,7 +359,7 @@ class Run(Hooks):
         self.record = RunRecord()
         self.snapshots = SnapshotSeries(self.out / "snapshots")
         mesh = self.assembly.mesh
-        self._centroids = mesh.node_xy[mesh.element_nodes].mean(axis=1)
+        self._centroids = mesh.node_x[mesh.element_nodes].mean(axis=1)
         self._last_checkpoint = wallclock.monotonic()
         self._started = wallclock.monotonic()
         self.log_every_s = LOG_EVERY_S
@@ -486,14 +486,15 @@ class Run(Hooks):
     def tangential_stress_near_well(self) -> float:
         """Mean hoop stress (Pa, compression positive as in paper Fig. 10e) of the rock
         between one and two well radii from the centre; NaN without a borehole."""
-        outline = self.assembly.mesh.grains.outline
-        if outline.borehole_radius <= 0:
+        mesh = self.assembly.mesh
+        if not mesh.has_borehole:
             return float("nan")
         m = self.world.n_rock_elements
-        r = outline.borehole_radius
+        r = mesh.borehole_radius
+        center = (0.0, 0.0) if mesh.dimension == 3 else mesh.grains.outline.borehole_center
         return -ring_mean_tangential_stress(self._centroids, self.solver.stress[:m],
                                             self.world.rock_model.element_area,
-                                            outline.borehole_center, r, 2 * r)
+                                            center, r, 2 * r)
 
     def _record(self, stage: Stage) -> None:
         s, w = self.solver, self.world
@@ -547,8 +548,9 @@ class Run(Hooks):
             fill = w.scda_fill
             plug = PlugState(fill.node_xy, fill.element_nodes, s.u[n:], s.stress[m:],
                              w.expansive_pressure())
+        tau = s.tau[:c] if self.assembly.dimension == 3 else s.tau[:c, 0]
         self.snapshots.write(self.assembly, s.time, s.u[:n], s.stress[:m], s.sigma_n[:c],
-                             s.tau[:c, 0], s.status[:c], pressure=pressure, aperture=aperture,
+                             tau, s.status[:c], pressure=pressure, aperture=aperture,
                              plug=plug)
         self.record.snapshots = list(self.snapshots.entries)
 

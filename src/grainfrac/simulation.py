@@ -67,14 +67,15 @@ def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
     contact = np.asarray(s.cracks.contact, dtype=np.int64)[rock]
     mode = np.asarray(s.cracks.mode, dtype=np.int64)[rock]
     energy = np.asarray(s.cracks.energy, dtype=float)[rock]
-    xy = a.mesh.contact_xy[contact].reshape(-1, 2)
-    outline = a.mesh.grains.outline
+    xy = a.mesh.contact_x[contact, :2].reshape(-1, 2)
+    center = (0.0, 0.0) if a.dimension == 3 else a.mesh.grains.outline.borehole_center
     out: dict[str, Any] = {
         "grainfrac_version": grainfrac.__version__,
         "scenario": run.scenario.name,
         "seed": run.scenario.seed,
         "wall_time_s": wall_time_s,
         "sign_convention": SIGN_CONVENTION,
+        "dimension": a.dimension,
         "n_grains": a.n_grains,
         "n_elements": a.mesh.n_elements,
         "n_contacts": a.mesh.n_contacts,
@@ -108,8 +109,7 @@ def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
         out["peak_expansive_pressure_MPa"] = charge.state.peak_pressure / 1e6
         out["scda_stop_reason"] = charge.state.stop_reason
     out.update(fracture_summary(
-        xy[:, 0], xy[:, 1], mode, energy, center=outline.borehole_center,
-        well_radius=outline.borehole_radius,
+        xy[:, 0], xy[:, 1], mode, energy, center=center, well_radius=a.mesh.borehole_radius,
         connect_distance=1.5 * a.mesh.zone_size,
     ))
     out["energy_friction_J"] = s.energy_balance()["friction_work"]
@@ -226,7 +226,8 @@ def run_scenario(scenario: Scenario, recipe: RockRecipe, out: str | Path, *,
             run.write_history()
             cat = _rock_crack_catalogue(run)
             write_cracks(out / "cracks.csv", cat.rows(run.assembly.pair_names,
-                                                      run.stage_starts()))
+                                                      run.stage_starts()),
+                         run.assembly.dimension)
         summary = summarise(run, run.wall_time())
         _plot_run(run, cat, out / "figures")
         write_json(out / "summary.json", summary)
@@ -250,8 +251,10 @@ def _rock_crack_catalogue(run: Run):
 def _plot_run(run: Run, cat, figures: Path) -> None:
     """Fracture pattern, well pressure (with fluid), pressures by stage, final fields."""
     scenario = run.scenario
-    plot_fracture_pattern(run.assembly, cat.contact, cat.mode, figures / "fractures.png",
-                          title=f"{scenario.name} (seed {scenario.seed})")
+    three = run.assembly.dimension == 3
+    if not three:
+        plot_fracture_pattern(run.assembly, cat.contact, cat.mode, figures / "fractures.png",
+                              title=f"{scenario.name} (seed {scenario.seed})")
     coupled = run.world.coupled
     if coupled is not None:
         h = coupled.history
@@ -261,4 +264,5 @@ def _plot_run(run: Run, cat, figures: Path) -> None:
                            title=f"{scenario.name}: well pressure")
     plot_stage_history(run.record.history, figures / "pressures.png",
                        title=f"{scenario.name}: pressures and cracks by stage")
-    _plot_final_fields(run, figures)
+    if not three:
+        _plot_final_fields(run, figures)

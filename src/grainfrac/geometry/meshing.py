@@ -117,7 +117,15 @@ class GrainMesh:
 
     dimension: ClassVar[int] = 2
 
-    # The flow-facing interface shared with the 3D GrainMesh3D.
+    # The interface shared with the 3D GrainMesh3D.
+    @property
+    def node_x(self) -> np.ndarray:
+        return self.node_xy
+
+    @property
+    def contact_x(self) -> np.ndarray:
+        return self.contact_xy
+
     @property
     def fluid_node_x(self) -> np.ndarray:
         return self.fluid_node_xy

@@ -13,6 +13,8 @@ HISTORY_COLUMNS = ["time_s", "stage", "well_pressure_MPa", "expansive_pressure_M
 CRACK_COLUMNS = ["time_s", "x_mm", "y_mm", "mode", "contact_type", "energy_J",
                  "contact", "stage", "time_from_stage_start_s", "normal_x", "normal_y",
                  "normal_angle_deg", "length_mm", "grain_a", "grain_b"]
+# 3D runs add these (length_mm is then empty: a 3D sub-contact has an area).
+CRACK_COLUMNS_3D = ["z_mm", "normal_z", "area_mm2"]
 
 
 def write_history(path: str | Path, rows: list[dict[str, Any]]) -> Path:
@@ -37,5 +39,5 @@ def append_history(path: str | Path, rows: list[dict[str, Any]]) -> Path:
     return path
 
 
-def write_cracks(path: str | Path, rows: list[dict[str, Any]]) -> Path:
-    return write_csv(path, rows, CRACK_COLUMNS)
+def write_cracks(path: str | Path, rows: list[dict[str, Any]], dimension: int = 2) -> Path:
+    return write_csv(path, rows, CRACK_COLUMNS + (CRACK_COLUMNS_3D if dimension == 3 else []))

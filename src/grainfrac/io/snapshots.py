@@ -22,7 +22,15 @@ import numpy as np
 
 from grainfrac.assembly import GrainAssembly
 from grainfrac.io.files import write_text
-from grainfrac.io.vtk import METADATA_FIELD, _xyz, contacts_mesh, grains_mesh, write_vtu
+from grainfrac.io.vtk import (
+    METADATA_FIELD,
+    _xyz,
+    contact_points_mesh3d,
+    contacts_mesh,
+    grains_mesh,
+    grains_mesh3d,
+    write_vtu,
+)
 from grainfrac.physics.codes import metadata_bytes, to_output_stress
 from grainfrac.physics.kinematics import contact_opening
 
@@ -59,7 +67,10 @@ def plug_file(grains_file: str) -> str:
 
 
 def _stress_tensor(stress: np.ndarray) -> np.ndarray:
-    # ParaView/VTK symmetric tensor order: xx, yy, zz, xy, yz, xz.
+    # ParaView/VTK symmetric tensor order: xx, yy, zz, xy, yz, xz; ours are 2D (xx, yy,
+    # xy, zz) and 3D (xx, yy, zz, yz, xz, xy).
+    if stress.shape[1] == 6:
+        return stress[:, [0, 1, 2, 5, 3, 4]]
     out = np.zeros((len(stress), 6))
     out[:, :4] = stress[:, [0, 1, 3, 2]]
     return out
@@ -91,14 +102,17 @@ class SnapshotSeries:
         """Write one snapshot (``stress`` tension positive, as the mechanics keeps it: the
         file has it compression positive); return its index."""
         index = len(self.entries)
-        grains = grains_mesh(assembly)
-        grains.point_data["displacement_m"] = _xyz(u)
+        three = assembly.dimension == 3
+        grains = grains_mesh3d(assembly) if three else grains_mesh(assembly)
+        grains.point_data["displacement_m"] = u if three else _xyz(u)
         grains.cell_data["stress_compression_positive_Pa"] = [
             _stress_tensor(to_output_stress(stress))]
-        contacts = contacts_mesh(assembly)
+        # 3D: one vertex per sub-contact (the faces' triangles are shared by several).
+        contacts = contact_points_mesh3d(assembly) if three else contacts_mesh(assembly)
         extra = {
             "normal_stress_Pa": sigma_n,
-            "shear_stress_Pa": tau,
+            # 3D: the magnitude of the shear vector
+            "shear_stress_Pa": np.linalg.norm(tau, axis=1) if tau.ndim == 2 else tau,
             "opening_m": contact_opening(assembly, u),
             "failed": (status > 0).astype(np.int32),
             "mode": status.astype(np.int32),

@@ -24,9 +24,11 @@ class CrackCatalogue:
     mode: np.ndarray  # kernels.TENSILE or kernels.SHEAR
     pair: np.ndarray  # mineral-pair id
     energy: np.ndarray  # strain energy released at failure (J)
-    normal: np.ndarray | None = None  # (n, 2) unit normal, from the first grain to the second
-    length: np.ndarray | None = None  # m, tributary length of the sub-contact
+    normal: np.ndarray | None = None  # (n, d) unit normal, from the first grain to the second
+    length: np.ndarray | None = None  # m, tributary length of the sub-contact (2D)
     grains: np.ndarray | None = None  # (n, 2) the two grains (blocks) it joined
+    z: np.ndarray | None = None  # m, along the borehole axis (3D)
+    area: np.ndarray | None = None  # m2, tributary area of the sub-contact (3D)
 
     def __len__(self) -> int:
         return len(self.contact)
@@ -54,6 +56,15 @@ class CrackCatalogue:
         """Rows for cracks.csv (docs/outputs.md: mm and J at the edge); ``stage_starts``
         (kind, absolute start time in s) of the stages run, in order."""
         stage, start = self.stage_of(stage_starts or [])
+        if self.z is not None:
+            rows = self._rows2d(pair_names, stage, start)
+            for row, z, n, area in zip(rows, self.z, self.normal, self.area, strict=True):
+                row.update({"z_mm": float(z * 1e3), "normal_z": float(n[2]),
+                            "area_mm2": float(area * 1e6)})
+            return rows
+        return self._rows2d(pair_names, stage, start)
+
+    def _rows2d(self, pair_names, stage, start) -> list[dict]:
         normal = self.normal if self.normal is not None else np.full((len(self), 2), np.nan)
         length = self.length if self.length is not None else np.full(len(self), np.nan)
         grains = self.grains if self.grains is not None else np.full((len(self), 2), -1)
@@ -79,16 +90,20 @@ def crack_catalogue(assembly: GrainAssembly, contact: list[int] | np.ndarray,
     """Attach positions and mineral-pair types to the solver's crack record."""
     contact = np.asarray(contact, dtype=np.int64)
     mesh = assembly.mesh
-    xy = mesh.contact_xy[contact].reshape(-1, 2)
+    d = mesh.dimension
+    x = mesh.contact_x[contact].reshape(-1, d)
     return CrackCatalogue(
         contact=contact,
         time=np.asarray(time, dtype=float),
-        x=xy[:, 0],
-        y=xy[:, 1],
+        x=x[:, 0],
+        y=x[:, 1],
         mode=np.asarray(mode, dtype=np.int64),
         pair=assembly.contact_view("pair")[contact],
         energy=np.asarray(energy, dtype=float),
-        normal=mesh.contact_normal[contact].reshape(-1, 2),
-        length=(mesh.contact_area / mesh.thickness)[contact],
+        normal=mesh.contact_normal[contact].reshape(-1, d),
+        length=(mesh.contact_area / mesh.thickness)[contact] if d == 2
+        else np.full(len(contact), np.nan),
         grains=mesh.interface_grains[mesh.contact_interface[contact]].reshape(-1, 2),
+        z=x[:, 2] if d == 3 else None,
+        area=mesh.contact_area[contact] if d == 3 else None,
     )

@@ -41,13 +41,21 @@ def tangential_stress(points: np.ndarray, stress: np.ndarray,
     return stress[:, 0] * s * s + stress[:, 1] * c * c - 2.0 * stress[:, 2] * s * c
 
 
+def in_plane(stress: np.ndarray) -> np.ndarray:
+    """(sxx, syy, sxy) of 2D stresses (sxx, syy, sxy, szz) or 3D ones (sxx, syy, szz, syz,
+    sxz, sxy): the components in the slab plane, about the borehole axis (z)."""
+    return stress[:, [0, 1, 5]] if stress.shape[1] == 6 else stress[:, :3]
+
+
 def ring_mean_tangential_stress(points: np.ndarray, stress: np.ndarray, weights: np.ndarray,
                                 center: tuple[float, float], inner: float,
                                 outer: float) -> float:
-    """Weighted mean hoop stress (Pa, tension positive) of points with inner <= r < outer."""
-    r = np.hypot(*(np.asarray(points) - np.asarray(center)).T)
+    """Weighted mean hoop stress (Pa, tension positive) of points with inner <= r < outer
+    (in 3D: distance from the axis through ``center`` along z; points may carry a z)."""
+    points = np.asarray(points)[:, :2]
+    r = np.hypot(*(points - np.asarray(center)).T)
     ring = (r >= inner) & (r < outer)
     if not ring.any():
         return float("nan")
-    hoop = tangential_stress(points[ring], stress[ring], center)
+    hoop = tangential_stress(points[ring], in_plane(stress[ring]), center)
     return float(np.average(hoop, weights=weights[ring]))

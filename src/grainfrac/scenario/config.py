@@ -5,12 +5,12 @@ and output, and the checks across them (stage order, borehole, sides, sizes).
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 from pydantic import Field, model_validator
 
 from grainfrac import materials
-from grainfrac.assembly import FissureSpec, GrainSpec, SpecimenConfig
+from grainfrac.assembly import FissureSpec, GrainSpec, SpecimenConfig, with_3d_slab_thickness
 from grainfrac.errors import ConfigError
 from grainfrac.geometry.specimens import SlabSpec, SpecimenShapeSpec
 from grainfrac.io.config import StrictModel, validate
@@ -35,6 +35,9 @@ class Scenario(StrictModel):
 
     name: str = Field("scenario", description="run name")
     seed: int = Field(0, ge=0, description="random seed of grains, minerals, Weibull draws")
+    dimension: Literal[2, 3] = Field(
+        2, description="2: plane-strain slice (triangles); 3: polyhedral grains (tetrahedra), "
+        "the slab a box with the borehole along z through its thickness")
     rock: str | materials.RockRecipe = Field("strathbogie-granite", description="rock recipe")
     specimen: SpecimenShapeSpec = Field(
         default_factory=SlabSpec, description="specimen: a slab or rectangle, chosen by `shape`")
@@ -54,6 +57,7 @@ class Scenario(StrictModel):
     @model_validator(mode="before")
     @classmethod
     def _check_stage_entries(cls, data: Any) -> Any:
+        data = with_3d_slab_thickness(data)
         if isinstance(data, dict) and isinstance(data.get("stages"), list):
             # Every stage's problems at once, one line each.
             problems = [line for index, stage in enumerate(data["stages"])
@@ -70,6 +74,8 @@ class Scenario(StrictModel):
             raise ValueError("\n".join(f"{f}: {m}" for f, m in exc.problems)) from None
         self._check_borehole()
         self._check_order()
+        if self.dimension == 3:
+            self._check_3d()
         shape = self.specimen.shape
         if shape not in _STRESSABLE_SHAPES:
             raise ValueError(
@@ -100,6 +106,17 @@ class Scenario(StrictModel):
                     f"specimen.borehole_diameter_mm: must be > 0 for the {stage.kind} stage "
                     f"(stages.{i}) (got {spec.borehole_diameter_mm:g})"
                 )
+
+    def _check_3d(self) -> None:
+        """What a 3D scenario cannot have (yet), and what it must say."""
+        stress = self.stress
+        if stress.case is None and stress.sigma_z_MPa is None:
+            raise ValueError("stress.sigma_z_MPa: required in 3D without a case (the stress "
+                             "along the borehole axis; paper Table 6: 1 MPa in every case)")
+        for i, stage in enumerate(self.stages):
+            if stage.kind in ("scda", "drill_out"):
+                raise ValueError(f"stages.{i}.kind: {stage.kind} is not built in 3D yet "
+                                 "(equilibrate and inject are)")
 
     def _check_order(self) -> None:
         scda_at: int | None = None
@@ -151,7 +168,8 @@ class Scenario(StrictModel):
     def specimen_config(self) -> SpecimenConfig:
         """The geometry and material part, for :func:`grainfrac.assembly.build_assembly`."""
         return validate(SpecimenConfig, {
-            "seed": self.seed, "rock": self.rock, "specimen": self.specimen,
+            "seed": self.seed, "dimension": self.dimension, "rock": self.rock,
+            "specimen": self.specimen,
             "grains": self.grains, "fissures": self.fissures,
         })
 

@@ -26,6 +26,10 @@ SPECIMEN_SIDES: dict[str, tuple[str, ...]] = {
     "semi_disk": ("arc", "base"),
 }
 
+# A 3D slab's sides by the 2D names (the slab plane is x-y; z+ and z- are its top and
+# bottom faces, impermeable as in paper Fig. 9c).
+SIDES_3D = {"left": "x-", "right": "x+", "bottom": "y-", "top": "y+"}
+
 
 class FluidSpec(StrictModel):
     """Fluid, hydraulic apertures and fluid boundaries (defaults: water, paper Table 4).
@@ -109,9 +113,12 @@ class FluidSpec(StrictModel):
             broken_residual_aperture=self.broken_residual_aperture_m,
         )
 
-    def fixed_pressures(self) -> dict[str, float]:
-        """Side name -> fixed pressure (Pa), for ``build_flow_network(permeable_sides=...)``."""
-        return dict.fromkeys(self.permeable_sides, self.boundary_pressure_MPa * MPA)
+    def fixed_pressures(self, dimension: int = 2) -> dict[str, float]:
+        """Side name -> fixed pressure (Pa), for ``build_flow_network(permeable_sides=...)``;
+        in 3D the in-plane sides by the box's names (:data:`SIDES_3D`)."""
+        names = SIDES_3D if dimension == 3 else {}
+        return {names.get(side, side): self.boundary_pressure_MPa * MPA
+                for side in self.permeable_sides}
 
     @property
     def well_compressibility(self) -> float:

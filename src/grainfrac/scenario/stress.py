@@ -39,6 +39,9 @@ class InSituStress(StrictModel):
     case: StressCase | None = Field("case2", description="paper Table 6 stress case")
     sigma_x_MPa: float | None = Field(None, ge=0, description="compressive stress along x [MPa]")
     sigma_y_MPa: float | None = Field(None, ge=0, description="compressive stress along y [MPa]")
+    sigma_z_MPa: float | None = Field(
+        None, ge=0, description="compressive stress along z (the borehole axis) [MPa]; acts "
+        "in 3D only; from the case when one is given, required in 3D otherwise")
 
     @model_validator(mode="before")
     @classmethod
@@ -61,15 +64,17 @@ class InSituStress(StrictModel):
                     "case1..case4, or both sigma_x_MPa and sigma_y_MPa)"
                 )
             return self
-        sx, sy, _ = STRESS_CASES[self.case]
-        table = {"sigma_x_MPa": sx, "sigma_y_MPa": sy}
+        sx, sy, sz = STRESS_CASES[self.case]
+        table = {"sigma_x_MPa": sx, "sigma_y_MPa": sy, "sigma_z_MPa": sz}
+        given["sigma_z_MPa"] = self.sigma_z_MPa
         conflict = {k: v for k, v in given.items()
                      if v is not None and not math.isclose(v, table[k], rel_tol=1e-12)}
         if conflict:
             got = ", ".join(f"{k} = {v:g}" for k, v in conflict.items())
             raise ValueError(
                 f"give either case or sigma_x_MPa and sigma_y_MPa, not both: {self.case} is "
-                f"sigma_x_MPa = {sx:g}, sigma_y_MPa = {sy:g} (paper Table 6), got {got}"
+                f"sigma_x_MPa = {sx:g}, sigma_y_MPa = {sy:g}, sigma_z_MPa = {sz:g} "
+                f"(paper Table 6), got {got}"
             )
         for key, value in table.items():
             object.__setattr__(self, key, float(value))
@@ -80,6 +85,11 @@ class InSituStress(StrictModel):
         """``(sigma_x_MPa, sigma_y_MPa)``, compressive magnitudes."""
         assert self.sigma_x_MPa is not None and self.sigma_y_MPa is not None
         return self.sigma_x_MPa, self.sigma_y_MPa
+
+    @property
+    def sigma_z_Pa(self) -> float:
+        """The stress along the borehole axis (Pa, compressive; 3D), 0 where not given."""
+        return (self.sigma_z_MPa or 0.0) * MPA
 
     def resolved_Pa(self) -> tuple[float, float]:
         """``(sigma_x, sigma_y)`` in Pa, compressive magnitudes (for ``initialise_in_situ``)."""

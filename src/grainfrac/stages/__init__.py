@@ -25,10 +25,11 @@ from grainfrac.stages.world import World
 def from_scenario(scenario: Scenario, base_dir: Path | None = None) -> list[Stage]:
     """The stage objects of ``scenario.stages``, in order."""
     sigma_x, sigma_y = scenario.stress.resolved_Pa()
+    sigma_z = scenario.stress.sigma_z_Pa if scenario.dimension == 3 else 0.0
 
     def equilibrate(spec):
         return Equilibrate(sigma_x, sigma_y, ratio=spec.unbalanced_ratio,
-                           max_steps=spec.max_steps)
+                           max_steps=spec.max_steps, sigma_z=sigma_z)
 
     build = {
         "equilibrate": equilibrate,

@@ -42,8 +42,8 @@ class EquilibrateState:
 @dataclass
 class Equilibrate:
     """Replace the external loads by the far field ``sigma_x``, ``sigma_y`` on the
-    rectangle's sides and ``wall_pressure`` on the borehole wall (Pa, compressive
-    magnitudes), then step to an unbalanced-force ratio below ``ratio`` (or
+    rectangle's sides (and ``sigma_z`` on a 3D box's top and bottom) and
+    ``wall_pressure`` on the borehole wall (Pa, compressive magnitudes), then step to an unbalanced-force ratio below ``ratio`` (or
     ``max_steps``), bonds held elastic meanwhile. One chunk: :data:`CHECKS_PER_CHUNK`
     checks of the ratio."""
 
@@ -52,6 +52,7 @@ class Equilibrate:
     ratio: float
     max_steps: int
     wall_pressure: float = 0.0
+    sigma_z: float = 0.0
     kind: str = "equilibrate"
     periodic_snapshots: bool = False
     state: EquilibrateState = field(default_factory=EquilibrateState)
@@ -64,7 +65,7 @@ class Equilibrate:
             loads.external += normal_pressure_forces(world.assembly.mesh, "borehole",
                                                      self.wall_pressure)
         loads.external += far_field_stress_forces(world.assembly.mesh, self.sigma_x,
-                                                  self.sigma_y)
+                                                  self.sigma_y, self.sigma_z)
         world.solver.allow_failure = False  # until the stage ends (saved in a checkpoint)
 
     def advance(self, world: World) -> None:

@@ -22,7 +22,7 @@ def couple_fluid(world: World, fluid: FluidSpec) -> HydroMechanicalSolver:
     """The grain-boundary flow network with a well, coupled to the world's mechanics."""
     assembly = world.assembly
     network = flow.build_flow_network(
-        assembly.mesh, permeable_sides=fluid.fixed_pressures(), well=True,
+        assembly.mesh, permeable_sides=fluid.fixed_pressures(assembly.dimension), well=True,
         well_compressibility=fluid.well_compressibility,
         sealed=assembly.contact_intragranular, wall=fluid.well_wall,
     )
@@ -44,8 +44,13 @@ def fracture_at_boundary(world: World) -> bool:
         return False
     mesh = world.assembly.mesh
     contacts = np.asarray(world.solver.cracks.contact, dtype=np.int64)[rock]
-    near = mesh.grains.outline.side_of_points(mesh.contact_xy[contacts],
-                                              BOUNDARY_REACH_ZONES * mesh.zone_size)
+    reach = BOUNDARY_REACH_ZONES * mesh.zone_size
+    if mesh.dimension == 3:
+        # The slab's in-plane sides: its top and bottom faces are within reach of
+        # every crack of a thin slab.
+        solid, x = mesh.grains.solid, mesh.contact_x[contacts, :2]
+        return bool((np.minimum(x - solid.lo[:2], solid.hi[:2] - x) <= reach).any())
+    near = mesh.grains.outline.side_of_points(mesh.contact_xy[contacts], reach)
     return any(mask.any() for side, mask in near.items() if side != "borehole")
 
 
