@@ -27,10 +27,10 @@ from grainfrac.physics.solver import (
 )
 
 # Open-crack compliance A L / E' times this factor (Sneddon's mean opening of a
-# pressurised plane-strain crack is (pi/2) p L / E', see penny_crack_length). Measured on the default hybrid run and a
-# small HS run at a 0.1 ms step: 1.5 let fluid pile up and spike the well
-# pressure by 3 MPa when a crack closed; 0.5 started to oscillate (1.7 MPa
-# jumps); 1.0 is smooth in both.
+# pressurised plane-strain crack is (pi/2) p L / E', see penny_crack_length).
+# Measured on the default hybrid run and a small HS run at a 0.1 ms step: 1.5 let
+# fluid pile up and spike the well pressure by 3 MPa when a crack closed; 0.5
+# started to oscillate (1.7 MPa jumps); 1.0 is smooth in both.
 CRACK_COMPLIANCE_FACTOR = 1.0
 # An open sub-contact is at least as soft to a pressure rise of its own node as a
 # crack this many zones long (HydroMechanicalSolver.crack_compliance).

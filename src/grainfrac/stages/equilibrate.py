@@ -43,9 +43,9 @@ class EquilibrateState:
 class Equilibrate:
     """Replace the external loads by the far field ``sigma_x``, ``sigma_y`` on the
     rectangle's sides (and ``sigma_z`` on a 3D box's top and bottom) and
-    ``wall_pressure`` on the borehole wall (Pa, compressive magnitudes), then step to an unbalanced-force ratio below ``ratio`` (or
-    ``max_steps``), bonds held elastic meanwhile. One chunk: :data:`CHECKS_PER_CHUNK`
-    checks of the ratio."""
+    ``wall_pressure`` on the borehole wall (Pa, compressive magnitudes), then step to
+    an unbalanced-force ratio below ``ratio`` (or ``max_steps``), bonds held elastic
+    meanwhile. One chunk: :data:`CHECKS_PER_CHUNK` checks of the ratio."""
 
     sigma_x: float
     sigma_y: float
