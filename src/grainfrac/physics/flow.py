@@ -174,7 +174,9 @@ def build_flow_network(
             mouths = Mouths(unknown=unknown[wall_nodes].copy(),
                             contact_mouth=mouth_of_node[mesh.contact_fluid_node],
                             length=MOUTH_LENGTH_ZONES * mesh.zone_size,
-                            width=mesh.thickness,
+                            # 2D: the node stands for the whole slab thickness; 3D: a
+                            # zone of the grain boundary's line on the wall
+                            width=mesh.thickness if mesh.dimension == 2 else mesh.zone_size,
                             is_open=np.zeros(len(wall_nodes), dtype=bool))
         else:
             keep = np.ones(n_nodes, dtype=bool)
@@ -285,12 +287,38 @@ def borehole_wall_loop(mesh: GrainMesh) -> np.ndarray:
         radial = p.mean(axis=1)[:, :2]
         inward = np.einsum("ij,ij->i", normal[:, :2], radial) < 0.0
         tri[inward] = tri[inward][:, ::-1]
-        return tri
+        return np.vstack((tri, _crack_mouth_triangles(mesh, tri)))
     faces = mesh.boundary_faces["borehole"].nodes
     start, end = faces[:, 0], faces[:, 1]
     gap = mesh.node_xy[end][:, None, :] - mesh.node_xy[start][None, :, :]
     following = start[np.argmin(np.einsum("ijk,ijk->ij", gap, gap), axis=1)]
     return np.column_stack((start, end, following))
+
+
+def _crack_mouth_triangles(mesh, tri: np.ndarray) -> np.ndarray:
+    """Triangles (k, 3) that close the 3D borehole wall across its crack mouths.
+
+    Each grain's wall patch has nodes of its own; where two patches meet, an edge
+    a -> b of one (as its outward winding runs) has a twin b' -> a' on the other at the
+    same two points. The quad (b, a, a', b') bridges them with the winding of both, so
+    it is flat and empty while the grain boundary is closed and spans the mouth's
+    opening once it opens. Where three grains meet on the wall, a small triangle stays
+    open (second order in the openings).
+    """
+    edges = np.concatenate((tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]))
+    key = np.sort(edges, axis=1)
+    _, first, count = np.unique(key, axis=0, return_index=True, return_counts=True)
+    rim = edges[first[count == 1]]  # edges of one triangle only: the patches' rims
+    point = mesh.node_point[rim]
+    lookup = {(int(pa), int(pb)): k for k, (pa, pb) in enumerate(point)}
+    # The twin of a -> b runs b' -> a' (rim[k2] = (b', a')).
+    quads = [(b, a, rim[k2, 1], rim[k2, 0])
+             for k, ((a, b), (pa, pb)) in enumerate(zip(rim, point, strict=True))
+             if (k2 := lookup.get((int(pb), int(pa)), -1)) > k]
+    if not quads:
+        return np.empty((0, 3), dtype=tri.dtype)
+    q = np.array(quads, dtype=tri.dtype)
+    return np.vstack((q[:, [0, 1, 2]], q[:, [0, 2, 3]]))
 
 
 def borehole_volume(mesh: GrainMesh, displacement: np.ndarray | None = None,
@@ -310,8 +338,8 @@ def borehole_volume(mesh: GrainMesh, displacement: np.ndarray | None = None,
     3D: the divergence theorem with the field F = (x, y, 0) / 2 (div F = 1), which has
     no flux through the borehole's flat ends: V = sum over the wall triangles of
     F(centroid) . S (S the triangle's area vector out of the hole), exact for flat
-    triangles. A crack mouth's gap between two grains' wall triangles is not closed
-    here: its void is that of the mouth's sub-contacts.
+    triangles. The wall is closed across its crack mouths (:func:`_crack_mouth_triangles`)
+    for the reason given for 2D.
     """
     loop = borehole_wall_loop(mesh) if wall_loop is None else wall_loop
     if mesh.dimension == 3:
