@@ -11,14 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from grainfrac.verification import (
-    elastic,
-    elastic3d,
-    hydraulic,
-    hydraulic3d,
-    kgd,
-    kgd_toughness,
-)
+from grainfrac.verification import elastic, elastic3d, hydraulic, hydraulic3d, kgd, kgd_toughness
 from grainfrac.verification.report import (
     ROW_KEYS,
     Comparison,
