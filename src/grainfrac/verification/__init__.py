@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from grainfrac.verification import elastic, elastic3d, hydraulic, kgd, kgd_toughness
+from grainfrac.verification import elastic, elastic3d, hydraulic, hydraulic3d, kgd, kgd_toughness
 from grainfrac.verification.report import (
     ROW_KEYS,
     Comparison,
@@ -30,6 +30,7 @@ CASES: dict[str, Callable[..., list[Comparison]]] = {
     "patch3d": elastic3d.patch3d,
     "lame3d": elastic3d.lame3d,
     "kirsch3d": elastic3d.kirsch3d,
+    "cubic-law3d": hydraulic3d.cubic_law3d,
 }
 
 __all__ = ["CASES", "ROW_KEYS", "Comparison", "all_passed", "comparison_table",
