@@ -508,7 +508,20 @@ def contact_patches(assembly: GrainAssembly | GrainMesh3D,
 
 
 def polygon_areas(polygons: np.ndarray) -> np.ndarray:
-    """Areas (m2) of planar polygons ``(n, k, 3)`` (fan from the first corner)."""
+    """Areas of planar polygons.
+
+    Parameters
+    ----------
+    polygons : np.ndarray
+        (n, k, 3) corners (m), in order round each polygon; a repeated corner
+        (a triangle padded to a quadrilateral) adds nothing.
+
+    Returns
+    -------
+    np.ndarray
+        (n,) areas (m2): half the norm of the summed fan cross products (the
+        vector area), exact for any simple planar polygon.
+    """
     p = np.asarray(polygons, dtype=float)
     a = p[:, 1:-1] - p[:, :1]
     b = p[:, 2:] - p[:, :1]
@@ -648,10 +661,22 @@ def cross_sections(assembly: GrainAssembly | GrainMesh3D, contact, mode,
 
 
 def grain_boundary_section(assembly: GrainAssembly | GrainMesh3D, z: float) -> np.ndarray:
-    """The grain boundaries cut by the plane z = const, as (k, 2, 2) (x, y) segments (m).
+    """The grain boundaries cut by a plane z = const.
 
-    Every interface face (between two different grains) is cut; the
-    specimen's outer faces and the borehole wall are not included.
+    Parameters
+    ----------
+    assembly : GrainAssembly or GrainMesh3D
+        A 3D assembly.
+    z : float
+        Height of the plane (m).
+
+    Returns
+    -------
+    np.ndarray
+        (k, 2, 2) (x, y) ends of the cut pieces (m), one per face triangle:
+        the interface faces (between two different grains), not the
+        specimen's outer faces, the borehole wall or the faces between pieces
+        of one grain.
     """
     mesh = _mesh3d(assembly)
     faces = np.flatnonzero(mesh.face_interface >= 0)
