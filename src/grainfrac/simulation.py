@@ -17,6 +17,8 @@ import numpy as np
 
 import grainfrac
 from grainfrac.analysis import breakdown_summary, contact_fractions, fracture_summary
+from grainfrac.analysis.fractures import energy_split
+from grainfrac.analysis.fractures3d import fracture_summary3d
 from grainfrac.io.files import write_json
 from grainfrac.io.results import write_cracks
 from grainfrac.materials import RockRecipe
@@ -24,6 +26,7 @@ from grainfrac.physics.codes import SIGN_CONVENTION, SIGN_CONVENTIONS, code_tabl
 from grainfrac.physics.cracks import crack_catalogue
 from grainfrac.run import Progress, Run, run_directory, run_log, stop_on_signals
 from grainfrac.scenario import Scenario, write_resolved
+from grainfrac.viz.cracks3d import write_crack_figures3d
 from grainfrac.viz.fields import (
     plot_contact_pressure,
     plot_displacement,
@@ -108,10 +111,18 @@ def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
     if charge is not None:
         out["peak_expansive_pressure_MPa"] = charge.state.peak_pressure / 1e6
         out["scda_stop_reason"] = charge.state.stop_reason
-    out.update(fracture_summary(
-        xy[:, 0], xy[:, 1], mode, energy, center=center, well_radius=a.mesh.borehole_radius,
-        connect_distance=1.5 * a.mesh.zone_size,
-    ))
+    connect = 1.5 * a.mesh.zone_size
+    if a.dimension == 3:
+        # The paper counts fractures and measures tortuosity on the top face (Sect. 5.3);
+        # the 2D keys read that face, the _top/_mid keys say which plane they read.
+        out.update(fracture_summary3d(a, contact, mode, connect_distance=connect))
+        out["n_radial_fractures"] = out["n_radial_fractures_top"]
+        out["tortuosity"] = out["tortuosity_top"]
+        out.update(energy_split(mode, energy))
+    else:
+        out.update(fracture_summary(
+            xy[:, 0], xy[:, 1], mode, energy, center=center,
+            well_radius=a.mesh.borehole_radius, connect_distance=connect))
     out["energy_friction_J"] = s.energy_balance()["friction_work"]
     # The mechanics' own books (J): work in (boundary, expansion, fluid), stored,
     # dissipated (damping, friction, bonds released) and the residual.
@@ -264,5 +275,8 @@ def _plot_run(run: Run, cat, figures: Path) -> None:
                            title=f"{scenario.name}: well pressure")
     plot_stage_history(run.record.history, figures / "pressures.png",
                        title=f"{scenario.name}: pressures and cracks by stage")
-    if not three:
+    if three:
+        write_crack_figures3d(run.assembly, cat.contact, cat.mode, figures,
+                              title=f"{scenario.name} (seed {scenario.seed})")
+    else:
         _plot_final_fields(run, figures)
