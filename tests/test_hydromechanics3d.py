@@ -1,0 +1,157 @@
+"""Coupled hydro-mechanics on 3D slabs: the borehole's void, the penny-crack compliance,
+the pressurisation of a sealed well, the fluid books and 3D scenario runs."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import quad
+
+from grainfrac.assembly import build_specimen
+from grainfrac.io.config import validate
+from grainfrac.loading.insitu import STRESS_CASES, initialise_in_situ
+from grainfrac.physics import flow
+from grainfrac.physics.coupled import HydroMechanicalSolver, penny_crack_length
+from grainfrac.physics.model import build_mechanical_model
+from grainfrac.physics.solver import MechanicsSolver
+from grainfrac.scenario import Scenario
+from grainfrac.simulation import run_scenario
+from grainfrac.units import MPA
+
+SLAB = {"dimension": 3, "seed": 1,
+        "specimen": {"shape": "slab", "width_mm": 30, "height_mm": 30, "thickness_mm": 8}}
+RATE = 90e-6 / 60  # m3/s, 90 ml/min
+
+
+@pytest.fixture(scope="module")
+def slab():
+    return build_specimen(SLAB)
+
+
+def test_borehole_volume_of_the_undeformed_and_moved_wall(slab):
+    mesh = slab.mesh
+    loop = flow.borehole_wall_loop(mesh)
+    v0 = flow.borehole_volume(mesh, None, loop)
+    exact = mesh.grains.solid.borehole_area * mesh.borehole_length
+    assert v0 == pytest.approx(exact, rel=1e-12)
+    shift = np.zeros_like(mesh.node_x)
+    shift[:, :2] = (3e-5, -2e-5)  # rigid translation: same void
+    assert flow.borehole_volume(mesh, shift, loop) == pytest.approx(v0, rel=1e-12)
+    eps = 1e-3  # uniform in-plane expansion: area x (1 + eps)^2
+    grown = flow.borehole_volume(mesh, mesh.node_x * [eps, eps, 0.0], loop)
+    assert grown / v0 == pytest.approx((1 + eps) ** 2, rel=1e-12)
+
+
+def test_the_wall_is_closed_across_crack_mouths(slab):
+    """Grains moved apart radially open every mouth: the void grows as a ring of the
+    wall's area x d, not by half of it as the grains' own wall faces alone say."""
+    mesh = slab.mesh
+    d = 1e-6
+    u = np.zeros_like(mesh.node_x)
+    for g in np.unique(mesh.node_grain):
+        on = mesh.node_grain == g
+        c = mesh.node_x[on, :2].mean(axis=0)
+        u[on, :2] = d * c / np.linalg.norm(c)
+    loop = flow.borehole_wall_loop(mesh)
+    own = loop[:len(mesh.surface_triangles["borehole"])]
+    ring = 2 * math.pi * mesh.borehole_radius * mesh.borehole_length * d
+    closed = flow.borehole_volume(mesh, u, loop) - flow.borehole_volume(mesh, None, loop)
+    faces_only = flow.borehole_volume(mesh, u, own) - flow.borehole_volume(mesh, None, own)
+    print(f"void growth / ring: closed {closed / ring:.3f}, faces only {faces_only / ring:.3f}")
+    assert 0.85 < closed / ring < 1.0
+    assert faces_only / ring < 0.6
+
+
+def test_penny_length_gives_the_2d_fraction_of_sneddon():
+    """Sneddon's mean openings (per p / E') by quadrature: plane-strain crack of length L,
+    4 sqrt(a^2 - x^2), a = L / 2; penny of radius R, (8 / pi) sqrt(R^2 - r^2). The 2D rule
+    books L, so a penny must book the same fraction of its own opening."""
+    length = 1.0
+    a = length / 2
+    mean_2d = quad(lambda x: 4 * math.sqrt(a * a - x * x), -a, a)[0] / length
+    radius = 0.5
+    mean_penny = quad(lambda r: 8 / math.pi * math.sqrt(radius**2 - r * r) * 2 * math.pi * r,
+                      0, radius)[0] / (math.pi * radius**2)
+    fraction_2d = length / mean_2d
+    assert float(penny_crack_length(2 * radius)) / mean_penny == pytest.approx(fraction_2d,
+                                                                              rel=1e-9)
+
+
+@pytest.fixture(scope="module")
+def pressurised(slab):
+    mech = MechanicsSolver(build_mechanical_model(slab))
+    sx, sy, sz = STRESS_CASES["case2"]
+    initialise_in_situ(mech, slab.mesh, sx * MPA, sy * MPA, sz * MPA, ratio=1e-4,
+                       max_steps=20_000)
+    network = flow.build_flow_network(
+        slab.mesh, well=True, wall="sealed",
+        permeable_sides=dict.fromkeys(("x-", "x+", "y-", "y+"), 0.0))
+    coupled = HydroMechanicalSolver(slab, mech, network, flow.FluidProperties())
+    coupled.held_at_start = coupled.state.stored(~network.fixed)
+    for _ in range(60):
+        coupled.advance(1e-5, RATE)
+    return coupled
+
+
+def test_sealed_well_pressurises_as_its_storage_says(pressurised):
+    """Before any crack: dp/dt = Q / (V c_w + pi a^2 l / G) (fluid and Lame wall)."""
+    c = pressurised
+    assert len(c.mechanics.cracks.contact) == 0
+    t = c.history.time[-1] - c.history.time[0] + 1e-5
+    storage = c.network.well_volume * c.network.well_compressibility + c.wall_compliance
+    expected = RATE * t / storage
+    print(f"well {c.well_pressure / MPA:.3f} MPa, storage estimate {expected / MPA:.3f} MPa")
+    assert c.well_pressure == pytest.approx(expected, rel=0.05)
+
+
+def test_fluid_volume_balance_closes(pressurised):
+    s = pressurised.state
+    gained = s.stored(~pressurised.network.fixed) - pressurised.held_at_start
+    assert s.injected == pytest.approx(gained + s.outflow, rel=1e-9)
+
+
+SCENARIO = {
+    "name": "tiny-3d", "seed": 1, "dimension": 3,
+    "specimen": {"shape": "slab", "width_mm": 30, "height_mm": 30, "thickness_mm": 8},
+    "stress": {"case": "case2"},
+    "stages": [{"kind": "equilibrate"},
+               {"kind": "inject", "rate_ml_per_min": 90.0, "duration_ms": 6.0,
+                "stop_after_breakdown_ms": 1.0,
+                "stop_at_boundary": False}],
+}
+
+
+def test_3d_scenario_breaks_down_with_closed_books(tmp_path):
+    scenario = validate(Scenario, SCENARIO)
+    summary = run_scenario(scenario, scenario.recipe(), tmp_path / "run")
+    assert summary["dimension"] == 3
+    assert summary["breakdown_pressure_MPa"] is not None
+    books = summary["hydraulic_energy_J"]
+    assert abs(books["residual"]) < 0.10 * books["pumped"]
+    assert summary["n_radial_fractures_top"] >= 1
+    assert summary["fracture_area_m2"] > 0
+    for name in ("fractures3d.png", "fracture_sections.png", "well_pressure.png"):
+        assert (tmp_path / "run" / "figures" / name).stat().st_size > 10_000
+    header = (tmp_path / "run" / "cracks.csv").read_text().splitlines()[0]
+    assert header.endswith("z_mm,normal_z,area_mm2")
+    assert json.loads((tmp_path / "run" / "summary.json").read_text())["dimension"] == 3
+
+
+@pytest.mark.parametrize(("change", "field"), [
+    ({"stress": {"sigma_x_MPa": 2.5, "sigma_y_MPa": 5.0}}, "stress.sigma_z_MPa"),
+    ({"stages": [{"kind": "equilibrate"}, {"kind": "scda", "scda": "betonamit-20C"}]},
+     "stages.1.kind"),
+])
+def test_3d_scenario_errors_name_the_field(change, field):
+    with pytest.raises(Exception, match=field.replace(".", r"\.")):
+        validate(Scenario, {**SCENARIO, **change})
+
+
+def test_3d_slab_defaults_to_the_3d_thickness():
+    scenario = validate(Scenario, {**SCENARIO, "specimen": {"shape": "slab"}})
+    assert scenario.specimen.thickness_mm == 20.0
+    assert validate(Scenario, {**SCENARIO, "dimension": 2,
+                               "specimen": {"shape": "slab"}}).specimen.thickness_mm == 10.0
