@@ -37,14 +37,15 @@ from grainfrac.physics.kinematics import contact_opening
 
 @dataclass(frozen=True)
 class PlugState:
-    """The SCDA plug at a snapshot: its blocks (triangles on their own nodes), their
-    displacement and tension-positive stress as the mechanics keeps them, and the
-    expansive pressure on the borehole wall (Pa, compression positive)."""
+    """The SCDA plug at a snapshot: its blocks (triangles in 2D, tetrahedra in 3D, each
+    on its own nodes), their displacement and tension-positive stress as the mechanics
+    keeps them, and the expansive pressure on the borehole wall (Pa, compression
+    positive)."""
 
-    node_xy: np.ndarray  # (3e, 2)
-    element_nodes: np.ndarray  # (e, 3)
-    u: np.ndarray  # (3e, 2)
-    stress: np.ndarray  # (e, 4) sxx, syy, sxy, szz, tension positive
+    node_xy: np.ndarray  # (k, d)
+    element_nodes: np.ndarray  # (e, d + 1)
+    u: np.ndarray  # (k, d)
+    stress: np.ndarray  # (e, 4) 2D sxx, syy, sxy, szz; (e, 6) 3D xx, yy, zz, yz, xz, xy
     expansive_pressure: float
 
 
@@ -52,10 +53,13 @@ def plug_mesh(plug: PlugState) -> meshio.Mesh:
     """The plug's blocks with displacement, stress and pressure (compression positive)."""
     stress = to_output_stress(plug.stress)
     n = len(plug.element_nodes)
-    mesh = meshio.Mesh(_xyz(plug.node_xy), [("triangle", plug.element_nodes.astype(np.int64))])
-    mesh.point_data["displacement_m"] = _xyz(plug.u)
+    three = plug.node_xy.shape[1] == 3
+    cells = [("tetra" if three else "triangle", plug.element_nodes.astype(np.int64))]
+    mesh = meshio.Mesh(plug.node_xy if three else _xyz(plug.node_xy), cells)
+    mesh.point_data["displacement_m"] = plug.u if three else _xyz(plug.u)
     mesh.cell_data["stress_compression_positive_Pa"] = [_stress_tensor(stress)]
-    # The blocks' mean in-plane stress: the pressure inside the agent.
+    # The blocks' mean stress across the borehole axis (xx, yy are the first two
+    # components in both layouts): the pressure the agent exerts on the wall.
     mesh.cell_data["pressure_Pa"] = [0.5 * (stress[:, 0] + stress[:, 1])]
     mesh.cell_data["expansive_pressure_Pa"] = [np.full(n, float(plug.expansive_pressure))]
     return mesh

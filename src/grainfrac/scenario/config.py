@@ -108,15 +108,11 @@ class Scenario(StrictModel):
                 )
 
     def _check_3d(self) -> None:
-        """What a 3D scenario cannot have (yet), and what it must say."""
+        """What a 3D scenario must say."""
         stress = self.stress
         if stress.case is None and stress.sigma_z_MPa is None:
             raise ValueError("stress.sigma_z_MPa: required in 3D without a case (the stress "
                              "along the borehole axis; paper Table 6: 1 MPa in every case)")
-        for i, stage in enumerate(self.stages):
-            if stage.kind in ("scda", "drill_out"):
-                raise ValueError(f"stages.{i}.kind: {stage.kind} is not built in 3D yet "
-                                 "(equilibrate and inject are)")
 
     def _check_order(self) -> None:
         scda_at: int | None = None
