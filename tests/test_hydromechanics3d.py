@@ -142,8 +142,6 @@ def test_3d_scenario_breaks_down_with_closed_books(tmp_path):
 
 @pytest.mark.parametrize(("change", "field"), [
     ({"stress": {"sigma_x_MPa": 2.5, "sigma_y_MPa": 5.0}}, "stress.sigma_z_MPa"),
-    ({"stages": [{"kind": "equilibrate"}, {"kind": "scda", "scda": "betonamit-20C"}]},
-     "stages.1.kind"),
 ])
 def test_3d_scenario_errors_name_the_field(change, field):
     with pytest.raises(Exception, match=field.replace(".", r"\.")):
