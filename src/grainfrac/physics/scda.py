@@ -46,7 +46,7 @@ from grainfrac.errors import GeometryError
 from grainfrac.geometry.mesh import contact_frame, tet_volumes
 from grainfrac.geometry.meshing import hex_lattice
 from grainfrac.geometry.meshing3d import tet_quality
-from grainfrac.geometry.solids3d import BOREHOLE
+from grainfrac.geometry.solids3d import BOREHOLE, Solid
 from grainfrac.materials import ScdaRecipe
 from grainfrac.physics.model import MechanicalModel, build_mechanical_model, model_from_arrays
 from grainfrac.physics.records import Elements, ElementState
@@ -340,7 +340,8 @@ def scda_fill3d(assembly: GrainAssembly, recipe: ScdaRecipe) -> ScdaFill:
     )
 
 
-def _tetrahedralise_plug(wall: np.ndarray, solid, h: float) -> tuple[np.ndarray, np.ndarray]:
+def _tetrahedralise_plug(wall: np.ndarray, solid: Solid, h: float
+                        ) -> tuple[np.ndarray, np.ndarray]:
     """Delaunay tetrahedra (right-handed) of the wall points and the plug's lattice.
 
     Flat tetrahedra are dropped. A lattice row lined up with a vertical edge of
@@ -376,7 +377,7 @@ def _tetrahedralise_plug(wall: np.ndarray, solid, h: float) -> tuple[np.ndarray,
     return points, tets
 
 
-def _plug_lattice(solid, h: float) -> tuple[np.ndarray, np.ndarray]:
+def _plug_lattice(solid: Solid, h: float) -> tuple[np.ndarray, np.ndarray]:
     """The plug's interior lattice before displacement, and which points lie in the end
     faces: close-packed hexagonal layers of spacing ``h`` from the bottom face to the
     top face, at least :data:`_PLUG_CLEARANCE` zones inside every wall facet."""
@@ -396,7 +397,7 @@ def _plug_lattice(solid, h: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _displace(x: np.ndarray, in_face: np.ndarray, jitter: float, rng: np.random.Generator,
-              solid, h: float) -> np.ndarray:
+              solid: Solid, h: float) -> np.ndarray:
     """Lattice points moved by up to ``jitter`` (m) along each axis; those in an end
     face stay in it; one that would come closer to the wall than half the clearance
     stays where it was."""

@@ -1,7 +1,8 @@
 """SCDA charging: the plug in the borehole expands at ``v = f exp(-b t)`` (paper Eq. 9).
 
 Stops at the peak expansive pressure, when the expansion has decayed, or at
-the time limit (:class:`grainfrac.scenario.ScdaStage`).
+the time limit (:class:`grainfrac.scenario.ScdaStage`). The same in 2D and 3D:
+:func:`grainfrac.physics.scda.scda_fill` meshes triangular or tetrahedral blocks.
 """
 
 from __future__ import annotations
