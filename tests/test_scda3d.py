@@ -238,6 +238,39 @@ def test_plug_against_an_elastic_rock_matches_lame():
     assert u_plug - u_rock == pytest.approx(p / kn, rel=1e-3)
 
 
+def test_charging_stops_when_the_expansion_decays_and_drill_out_unloads_the_rock(slab):
+    """The stages themselves on an unloaded 3D slab: with b = 1e4 /s and a stop at half
+    of f, charging ends on the decay (ln 2 / b = 69 us) short of the peak; drilling out
+    swaps the rock's model back and the wall's load goes with the plug."""
+    from grainfrac.physics.model import build_mechanical_model
+    from grainfrac.scenario import DrillOutStage, ScdaStage
+    from grainfrac.stages import DrillOut, ScdaCharge, World
+
+    world = World(slab, MechanicsSolver(build_mechanical_model(slab)))
+    spec = validate(ScdaStage, {"decay_rate_per_s": 1e4, "min_velocity_fraction": 0.5})
+    charge = ScdaCharge(spec, materials.load_scda("scda"))
+    charge.begin(world)
+    while not charge.finished():
+        charge.advance(world)
+    rock = world.n_rock_elements
+    loaded = np.abs(world.solver.stress[:rock]).max()
+    removed = scda.plug_stored_energy(world.solver, slab.mesh.n_nodes, slab.mesh.n_contacts)
+    drill = DrillOut(validate(DrillOutStage, {"relax_steps": 1000, "max_steps": 1000}))
+    drill.begin(world)
+    while not drill.finished():
+        drill.advance(world)
+    unloaded = np.abs(world.solver.stress).max()
+    print(f"\nstopped: {charge.state.stop_reason} at "
+          f"{(drill.state.start_time - charge.state.start_time) * 1e6:.0f} us, "
+          f"peak {charge.state.peak_pressure / MPA:.2f} MPa; rock stress {loaded / MPA:.2f} "
+          f"-> {unloaded / MPA:.3f} MPa after drilling out; plug energy {removed:.2e} J")
+    assert charge.state.stop_reason == "expansion decayed"
+    assert 0 < charge.state.peak_pressure < spec.peak_pressure_MPa * MPA
+    assert world.model_kind == "rock" and world.solver.model is world.rock_model
+    assert world.solver.energies["energy_removed"][0] == pytest.approx(removed)
+    assert unloaded < 0.1 * loaded  # measured 4 % after 1000 steps
+
+
 # --------------------------------------------------------------------------- scenario
 HYBRID = {
     "name": "tiny-3d-hybrid", "seed": 1, "dimension": 3,
