@@ -491,10 +491,9 @@ class Run(Hooks):
             return float("nan")
         m = self.world.n_rock_elements
         r = mesh.borehole_radius
-        center = (0.0, 0.0) if mesh.dimension == 3 else mesh.grains.outline.borehole_center
         return -ring_mean_tangential_stress(self._centroids, self.solver.stress[:m],
                                             self.world.rock_model.element_area,
-                                            center, r, 2 * r)
+                                            mesh.borehole_center, r, 2 * r)
 
     def _record(self, stage: Stage) -> None:
         s, w = self.solver, self.world

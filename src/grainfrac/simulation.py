@@ -71,7 +71,6 @@ def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
     mode = np.asarray(s.cracks.mode, dtype=np.int64)[rock]
     energy = np.asarray(s.cracks.energy, dtype=float)[rock]
     xy = a.mesh.contact_x[contact, :2].reshape(-1, 2)
-    center = (0.0, 0.0) if a.dimension == 3 else a.mesh.grains.outline.borehole_center
     out: dict[str, Any] = {
         "grainfrac_version": grainfrac.__version__,
         "scenario": run.scenario.name,
@@ -121,7 +120,7 @@ def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
         out.update(energy_split(mode, energy))
     else:
         out.update(fracture_summary(
-            xy[:, 0], xy[:, 1], mode, energy, center=center,
+            xy[:, 0], xy[:, 1], mode, energy, center=a.mesh.borehole_center,
             well_radius=a.mesh.borehole_radius, connect_distance=connect))
     out["energy_friction_J"] = s.energy_balance()["friction_work"]
     # The mechanics' own books (J): work in (boundary, expansion, fluid), stored,

@@ -139,6 +139,10 @@ class GrainMesh:
         return self.grains.outline.borehole_radius
 
     @property
+    def borehole_center(self) -> tuple[float, float]:
+        return self.grains.outline.borehole_center
+
+    @property
     def borehole_length(self) -> float:
         """The slab thickness: the borehole runs through the plane-strain slice (m)."""
         return self.thickness if self.has_borehole else 0.0

@@ -189,6 +189,11 @@ class GrainMesh3D:
         return self.grains.solid.borehole_radius
 
     @property
+    def borehole_center(self) -> tuple[float, float]:
+        """(x, y) of the borehole axis: the solids are built around the z axis."""
+        return (0.0, 0.0)
+
+    @property
     def borehole_length(self) -> float:
         """Length of the borehole along z (m): the solid's extent along its axis."""
         return float(self.grains.solid.extent[2]) if self.has_borehole else 0.0

@@ -124,6 +124,7 @@ def build_flow_network(
     well_compressibility: float = 1.0 / 2.0e9,
     sealed: np.ndarray | None = None,
     wall: str = "wet",
+    well_nodes: np.ndarray | None = None,
 ) -> FlowNetwork:
     """Flow unknowns for a mesh, with every pipe conducting (see :func:`conducting`).
 
@@ -154,6 +155,10 @@ def build_flow_network(
         - ``"flow_knots"``: 3DEC's injection at the flow knots where the joints
           meet the wall: the fluid enters the wall contacts (merged, as ``"wet"``)
           and lives in the joints only: no pressure on the wall, no borehole void.
+    well_nodes
+        Fluid nodes that are the well instead of the borehole wall's, with no void of
+        its own and no wall (``wall`` must be ``"flow_knots"``): a point injection, as
+        into the centre of the penny-shaped crack.
     """
     if sealed is not None and len(sealed) != mesh.n_contacts:
         raise ValueError(f"sealed has {len(sealed)} entries for {mesh.n_contacts} sub-contacts")
@@ -165,7 +170,12 @@ def build_flow_network(
     well_volume = 0.0
     mouths = None
     wall_nodes = mesh.fluid_node_sets.get("borehole", np.zeros(0, dtype=np.int64))
-    if well and mesh.has_borehole:
+    if well_nodes is not None:
+        if wall != "flow_knots":
+            raise ValueError("well_nodes: a point injection has no wall: give wall = "
+                             "'flow_knots'")
+        wall_nodes = np.asarray(well_nodes, dtype=np.int64)
+    if well and (mesh.has_borehole or well_nodes is not None):
         if wall == "sealed":
             well_unknown = n_nodes
             unknown = np.arange(n_nodes)
