@@ -34,7 +34,7 @@ from scipy.spatial import Delaunay
 from grainfrac.errors import GeometryError
 from grainfrac.geometry.mesh import Mesh, contact_frame, simplex_measure, tet_volumes
 from grainfrac.geometry.solids3d import BOREHOLE
-from grainfrac.geometry.tessellation3d import GrainComplex, _cross
+from grainfrac.geometry.tessellation3d import GrainComplex, _cross, disc_faces
 
 _EDGE_JITTER = 0.1  # fraction of a piece / of the zone size
 _FACE_CLEARANCE = 0.5  # x zone: face lattice points kept this far inside the face
@@ -42,6 +42,7 @@ _CELL_CLEARANCE = 0.45  # x zone: interior lattice points kept this far from fac
 _BCC_SPACING = 1.15  # x zone: lattice constant of the interior points
 _SLIVER_QUALITY = 0.12  # normalised volume below which a tet is poor
 _CLEANUP_PASSES = 3
+_LINE_REACH = 0.75  # x zone: nodes of a named line (as the 2D NSCB rollers' reach)
 
 
 @dataclass(frozen=True)
@@ -483,7 +484,8 @@ def _assemble(cx, h, pts, face_point_ids, face_tris, face_point_area, piece_tets
 
     flow = _flow_graph(cx, pts, face_tris, face_point_ids, face_point_area, iface_faces,
                        face_interface, contact_face, contact_point)
-    node_sets, surface = _surface_sets(cx, face_point_ids, face_tris, node_of)
+    node_sets, surface = _surface_sets(cx, face_point_ids, face_tris, node_of,
+                                       pts[node_point], _LINE_REACH * h)
     return GrainMesh3D(
         grains=cx,
         zone_size=h,
@@ -563,32 +565,19 @@ def _flow_graph(cx, pts, face_tris, face_point_ids, face_point_area, iface_faces
     )
 
 
-def _on_side(cx: GrainComplex, x: np.ndarray) -> dict[str, np.ndarray]:
-    """Which points lie on each specimen side (1 nm)."""
-    s = cx.solid
-    tol = 1e-9
-    out = {}
-    for k, name in enumerate(("x", "y", "z")):
-        out[f"{name}-"] = np.abs(x[:, k] - s.lo[k]) < tol
-        out[f"{name}+"] = np.abs(x[:, k] - s.hi[k]) < tol
-    if s.has_borehole:
-        d = x @ s.facet_normals().T
-        out[BOREHOLE] = (np.abs(d.max(axis=1) - s.apothem) < tol) & (
-            np.abs(x[:, 2] - 0.5 * (s.lo[2] + s.hi[2])) <= 0.5 * s.extent[2] + tol)
-    return out
-
-
 def _fluid_sets(cx, pts, fluid_pts) -> dict[str, np.ndarray]:
-    sides = _on_side(cx, pts[fluid_pts])
+    sides = cx.solid.on_sides(pts[fluid_pts])
     sets = {name: np.flatnonzero(m) for name, m in sides.items()}
     sets["well"] = sets.get(BOREHOLE, np.empty(0, dtype=np.int64))
-    sets["permeable"] = np.unique(np.concatenate([sets[n] for n in ("x-", "x+", "y-", "y+")]))
+    sets["permeable"] = np.unique(np.concatenate(
+        [sets[n] for n in cx.solid.permeable_sides] or [np.empty(0, dtype=np.int64)]))
     sets["impermeable"] = np.unique(np.concatenate([sets[n] for n in ("z-", "z+")]))
     return sets
 
 
-def _surface_sets(cx, face_point_ids, face_tris, node_of):
-    """Node sets and surface triangles (node ids) of each specimen side."""
+def _surface_sets(cx, face_point_ids, face_tris, node_of, node_x, reach):
+    """Node sets and surface triangles (node ids) of each specimen side, and the node
+    sets of the solid's named lines (surface nodes within ``reach`` of each)."""
     sides = cx.solid.sides
     nodes: dict[str, list[np.ndarray]] = {n: [] for n in sides}
     tris: dict[str, list[np.ndarray]] = {n: [] for n in sides}
@@ -604,4 +593,55 @@ def _surface_sets(cx, face_point_ids, face_tris, node_of):
                  for n, v in nodes.items()}
     surface = {n: np.vstack(v) if v else np.empty((0, 3), dtype=np.int64)
                for n, v in tris.items()}
+    if cx.solid.lines:
+        outer = np.unique(np.concatenate(list(node_sets.values())))
+        for name, (lx, ly) in cx.solid.lines.items():
+            # A line load or a roller touches the surface nodes near its line (as the
+            # 2D NSCB rollers); never none: then the nearest ones.
+            d = np.hypot(node_x[outer, 0] - lx, node_x[outer, 1] - ly)
+            near = d <= max(reach, float(d.min()) + 1e-9)
+            node_sets[name] = outer[near]
     return node_sets, surface
+
+
+# -- the penny block ----------------------------------------------------------------------
+def _penny_solid(mesh: GrainMesh3D):
+    solid = mesh.grains.solid
+    if solid.cut_z is None:
+        raise GeometryError(f"the specimen is a {solid.kind}, not a penny block")
+    return solid
+
+
+def penny_plane_contacts(mesh: GrainMesh3D) -> tuple[np.ndarray, np.ndarray]:
+    """Sub-contacts on the penny block's cut plane, and those inside its pre-cut disc.
+
+    Returns
+    -------
+    on_plane, in_disc : np.ndarray
+        (c,) boolean masks. The disc is made of whole grain faces (the faceted
+        polygon of :attr:`Solid.disc_facets` inscribed in the disc's circle), so the
+        areas of the ``in_disc`` sub-contacts sum to :attr:`Solid.disc_area`, and those
+        of ``on_plane`` to the plane's area.
+    """
+    _penny_solid(mesh)
+    cx = mesh.grains
+    plane = np.zeros(len(cx.faces), dtype=bool)
+    plane[cx.cut_faces()] = True
+    disc = np.zeros(len(cx.faces), dtype=bool)
+    disc[disc_faces(cx)] = True
+    return plane[mesh.contact_face], disc[mesh.contact_face]
+
+
+def penny_injection_node(mesh: GrainMesh3D) -> int:
+    """The fluid node at the centre of the penny's disc (the injection point).
+
+    The disc's inner cells meet on the axis, so the centre is a vertex of the grain
+    faces and always a fluid node.
+    """
+    solid = _penny_solid(mesh)
+    centre = np.array([0.0, 0.0, solid.cut_z])
+    d = np.linalg.norm(mesh.flow.node_x - centre, axis=1)
+    k = int(np.argmin(d))
+    if d[k] > 1e-9:
+        raise GeometryError(f"no fluid node at the disc centre (nearest {d[k]:.3g} m away)")
+    return k
