@@ -36,6 +36,7 @@ Construction (the short-edge rule is step 5):
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -142,15 +143,32 @@ class GrainComplex:
         return np.bincount(self.piece_grain, weights=self.piece_volumes(),
                            minlength=self.n_grains)
 
-    def edges(self) -> tuple[np.ndarray, list[list[int]]]:
-        """Unique edges (e, 2) (u < v) and the faces each belongs to."""
-        owner: dict[tuple[int, int], list[int]] = {}
-        for f, ring in enumerate(self.faces):
-            nxt = np.roll(ring, -1)
-            for u, v in zip(ring.tolist(), nxt.tolist(), strict=True):
-                owner.setdefault((min(u, v), max(u, v)), []).append(f)
-        keys = sorted(owner)
-        return np.array(keys, dtype=np.int64).reshape(-1, 2), [owner[k] for k in keys]
+    def edges(self) -> tuple[np.ndarray, list[np.ndarray]]:
+        """Unique edges (e, 2) (u < v, sorted) and the faces each belongs to (ascending)."""
+        pairs, _, face, start = self._edge_table
+        return pairs, np.split(face, start[1:])
+
+    @functools.cached_property
+    def _edge_table(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Edges (e, 2); per (edge, face) row, sorted by edge then face: the edge and the
+        face; and where each edge's rows start. Computed once (the repair rounds and the
+        mesher ask for it several times)."""
+        lens = np.array([len(r) for r in self.faces])
+        flat = np.concatenate(self.faces)
+        first = np.cumsum(lens) - lens
+        nxt = np.arange(1, len(flat) + 1)
+        nxt[first + lens - 1] = first
+        u, v = flat, flat[nxt]
+        face = np.repeat(np.arange(len(self.faces)), lens)
+        lo, hi = np.minimum(u, v), np.maximum(u, v)
+        order = np.lexsort((face, hi, lo))
+        lo, hi, face = lo[order], hi[order], face[order]
+        new = np.ones(len(lo), dtype=bool)
+        new[1:] = (lo[1:] != lo[:-1]) | (hi[1:] != hi[:-1])
+        start = np.flatnonzero(new)
+        pairs = np.column_stack((lo[start], hi[start])).astype(np.int64)
+        edge = np.cumsum(new) - 1
+        return pairs, edge, face, start
 
     def edge_classes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Edge vertex pairs, lengths, and a mask of interior grain edges.
@@ -158,14 +176,17 @@ class GrainComplex:
         An interior grain edge lies on no specimen face and has three or more
         grains around it (the edges the grain-size bounds act on).
         """
-        pairs, owners = self.edges()
+        pairs, edge, face, _ = self._edge_table
         length = np.linalg.norm(self.vertices[pairs[:, 1]] - self.vertices[pairs[:, 0]], axis=1)
-        grains = self.face_grains()
-        interior = np.zeros(len(pairs), dtype=bool)
-        for e, fl in enumerate(owners):
-            g = grains[fl]
-            if np.all(g[:, 1] >= 0):
-                interior[e] = len(np.unique(g)) >= 3
+        grains = self.face_grains()[face]
+        n_e = len(pairs)
+        on_face_side = np.zeros(n_e, dtype=bool)
+        np.logical_or.at(on_face_side, edge, grains[:, 1] < 0)
+        # Distinct grains around each edge: unique (edge, grain) rows, counted per edge.
+        both = np.unique(np.column_stack((np.concatenate((edge, edge)),
+                                          np.concatenate((grains[:, 0], grains[:, 1])))),
+                         axis=0)
+        interior = ~on_face_side & (np.bincount(both[:, 0], minlength=n_e) >= 3)
         on_surface = np.zeros(len(self.vertices), dtype=bool)
         # A cut plane is an imposed surface like the specimen's: edges ending on it
         # are cut by it, as the 2D rule exempts edges cut by the boundary.
@@ -771,12 +792,9 @@ def _violations(cx: GrainComplex, min_edge: float, max_edge: float, zone_size: f
     bad |= interior & ((length < min_edge) | (length > max_edge))
     if not bad.any():
         return np.empty(0, dtype=np.int64), float(length.min())
-    _, owners = cx.edges()
-    pieces = set()
-    for e in np.flatnonzero(bad):
-        for f in owners[e]:
-            pieces.update(int(p) for p in cx.face_pieces[f] if p >= 0)
-    return np.array(sorted(pieces), dtype=np.int64), float(length.min())
+    _, edge, face, _ = cx._edge_table
+    around = cx.face_pieces[face[bad[edge]]].ravel()
+    return np.unique(around[around >= 0]), float(length.min())
 
 
 def short_edge_report(cx: GrainComplex, min_edge: float, max_edge: float, zone_size: float
