@@ -549,30 +549,59 @@ def _flow_graph(cx, pts, face_tris, face_point_ids, face_point_area, iface_faces
     fluid_of[fluid_pts] = np.arange(len(fluid_pts))
     node_area = np.zeros(len(fluid_pts))
     np.add.at(node_area, contact_fluid, np.concatenate([face_point_area[f] for f in iface_faces]))
-    # Sub-contact of (face, point): contacts are stored face by face in iface order.
-    contact_of = {(int(f), int(p)): c for c, (f, p) in enumerate(zip(contact_face, contact_point,
-                                                                     strict=True))}
-    p_nodes, p_len, p_width, p_face, p_contacts = [], [], [], [], []
-    for f in iface_faces:
-        tri = face_tris[f]
-        x = pts[tri]
-        # Cotangent weights: edge (i, j) opposite corner k gets cot(angle at k) / 2.
-        w: dict[tuple[int, int], float] = {}
-        for k in range(3):
-            i, j = (k + 1) % 3, (k + 2) % 3
-            u, v = x[:, i] - x[:, k], x[:, j] - x[:, k]
-            cot = np.einsum("ij,ij->i", u, v) / np.linalg.norm(_cross(u, v), axis=1)
-            for a, b, c in zip(tri[:, i].tolist(), tri[:, j].tolist(), cot.tolist(),
-                               strict=True):
-                e = (min(a, b), max(a, b))
-                w[e] = w.get(e, 0.0) + 0.5 * c
-        for (a, b), cw in w.items():
-            length = float(np.linalg.norm(pts[b] - pts[a]))
-            p_nodes.append((fluid_of[a], fluid_of[b]))
-            p_len.append(length)
-            p_width.append(max(cw, 0.0) * length)  # obtuse boundary corners: no negative flow
-            p_face.append(f)
-            p_contacts.append((contact_of[(int(f), a)], contact_of[(int(f), b)]))
+    # Sub-contact of (face, point), found by a sorted key (one contact per pair).
+    contact_key = contact_face.astype(np.int64) * len(pts) + contact_point
+    by_key = np.argsort(contact_key)
+
+    def contact_of(face: np.ndarray, point: np.ndarray) -> np.ndarray:
+        return by_key[np.searchsorted(contact_key[by_key], face * len(pts) + point)]
+    # Cotangent weights: edge (i, j) opposite corner k gets cot(angle at k) / 2, summed
+    # over the (one or two) triangles of the face that share the edge. All faces at once;
+    # pipes face by face, each face's edges in the order corner k, then triangle.
+    tri = np.vstack([face_tris[f] for f in iface_faces]) if len(iface_faces) else \
+        np.empty((0, 3), dtype=np.int64)
+    tri_face = np.repeat(iface_faces, [len(face_tris[f]) for f in iface_faces])
+    x = pts[tri]
+    ends, cots, faces, order = [], [], [], []
+    n_tri = len(tri)
+    for k in range(3):
+        i, j = (k + 1) % 3, (k + 2) % 3
+        u, v = x[:, i] - x[:, k], x[:, j] - x[:, k]
+        cots.append(np.einsum("ij,ij->i", u, v) / np.linalg.norm(_cross(u, v), axis=1))
+        ends.append(np.sort(tri[:, [i, j]], axis=1))
+        faces.append(tri_face)
+        order.append(np.arange(n_tri))
+    ends, cot = np.vstack(ends), np.concatenate(cots)
+    face_of = np.concatenate(faces)
+    # Rank of each (triangle, corner) row within its face in the dict's insertion order.
+    first_tri = np.zeros(len(cx.faces), dtype=np.int64)
+    if n_tri:
+        starts = np.flatnonzero(np.r_[True, tri_face[1:] != tri_face[:-1]])
+        first_tri[tri_face[starts]] = starts
+    local = np.concatenate(order) - first_tri[face_of]
+    k_of = np.repeat(np.arange(3), n_tri)
+    count = np.zeros(len(cx.faces), dtype=np.int64)
+    np.add.at(count, tri_face, 1)
+    rank = k_of * count[face_of] + local
+    face_pos = np.zeros(len(cx.faces), dtype=np.int64)
+    face_pos[iface_faces] = np.arange(len(iface_faces))
+    row_order = np.lexsort((rank, face_pos[face_of]))
+    ends, cot, face_of = ends[row_order], cot[row_order], face_of[row_order]
+    key = np.column_stack((face_of, ends))
+    _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    inverse = inverse.ravel()
+    weight = np.zeros(len(first))
+    np.add.at(weight, inverse, 0.5 * cot)
+    pipe = np.argsort(first, kind="stable")  # pipes in first-insertion order
+    a, b = ends[first[pipe], 0], ends[first[pipe], 1]
+    pipe_face_ids = face_of[first[pipe]]
+    cw = weight[pipe]
+    p_len = [float(np.linalg.norm(pts[bb] - pts[aa])) for aa, bb in zip(a, b, strict=True)]
+    p_nodes = np.column_stack((fluid_of[a], fluid_of[b]))
+    # Obtuse boundary corners: no negative flow.
+    p_width = [max(c, 0.0) * length for c, length in zip(cw.tolist(), p_len, strict=True)]
+    p_face = pipe_face_ids
+    p_contacts = np.column_stack((contact_of(pipe_face_ids, a), contact_of(pipe_face_ids, b)))
     pipe_face = np.array(p_face, dtype=np.int64)
     fluid_x = pts[fluid_pts]
     sets = _fluid_sets(cx, pts, fluid_pts)
