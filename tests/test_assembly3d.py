@@ -215,3 +215,23 @@ def test_nscb_notch_supports_and_loading_point():
     # The slot's walls carry no sub-contacts: grains do not reach across it.
     cx = m.contact_x
     assert not np.any((np.abs(cx[:, 0]) < half_w - 1e-9) & (cx[:, 1] < depth - 1e-9))
+
+
+def test_every_shape_is_closed_by_its_named_sides(shaped):
+    """The sides' triangles with their outward normals enclose the solid: by the divergence
+    theorem, sum(A n . c) / 3 over all of them is the volume (a wrong normal or a missing
+    triangle would show)."""
+    from grainfrac.loading.boundary3d import surface_triangles
+
+    name, a = shaped
+    m = a.mesh
+    flux, total = 0.0, np.zeros(3)
+    for side in m.grains.solid.sides:
+        tri, area, normal = surface_triangles(m, side)
+        centroid = m.node_x[tri].mean(axis=1)
+        flux += np.sum(area * np.einsum("ij,ij->i", normal, centroid)) / 3
+        total += (area[:, None] * normal).sum(axis=0)
+    err = flux / m.grains.solid.volume - 1
+    print(f"{name}: sides {m.grains.solid.sides}; enclosed volume error {err:.1e}")
+    assert abs(err) < 1e-9
+    assert np.all(np.abs(total) < 1e-12)
