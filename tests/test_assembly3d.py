@@ -76,12 +76,28 @@ def test_grain_size_bounds_move_grain_count_and_median_edge():
                                "borehole_diameter_mm": 20}}, "specimen.borehole_diameter_mm"),
         ({**SLAB, "specimen": {"shape": "slab", "width_mm": 30, "height_mm": 30,
                                "thickness_mm": 1}}, "specimen.thickness_mm"),
-        ({**SLAB, "specimen": {"shape": "disk"}}, "specimen.shape"),
+        ({"specimen": {"shape": "penny"}}, "specimen.shape"),
         ({**SLAB, "specimen": {"shape": "sphere"}}, "specimen"),
         ({**SLAB, "dimension": 4}, "dimension"),
+        ({**SLAB, "specimen": {"shape": "penny", "size_mm": 30, "disc_diameter_mm": 16}},
+         "specimen.disc_diameter_mm"),
+        ({**SLAB, "specimen": {"shape": "penny", "disc_diameter_mm": 3}},
+         "specimen.disc_diameter_mm"),
+        ({**SLAB, "specimen": {"shape": "rectangle", "thickness_mm": 10}},
+         "specimen.thickness_mm"),
+        ({**SLAB, "specimen": {"shape": "disk", "diameter_mm": 3}}, "specimen.diameter_mm"),
+        ({**SLAB, "specimen": {"shape": "semi_disk", "notch_length_mm": 21}},
+         "specimen.notch_length_mm"),
+        ({**SLAB, "specimen": {"shape": "semi_disk", "notch_width_mm": 0.5}},
+         "specimen.notch_width_mm"),
+        ({**SLAB, "specimen": {"shape": "semi_disk", "support_span_mm": 4}},
+         "specimen.support_span_mm"),
     ],
-    ids=["borehole-too-wide", "thinner-than-a-zone", "shape-not-in-3d", "unknown-shape",
-         "bad-dimension"],
+    ids=["borehole-too-wide", "thinner-than-a-zone", "penny-in-2d", "unknown-shape",
+         "bad-dimension", "disc-wider-than-half-the-block", "disc-below-two-zones",
+         "cylinder-thickness-not-its-diameter", "disk-below-two-zones",
+         "notch-deeper-than-0.8-radius", "notch-narrower-than-half-a-zone",
+         "supports-in-the-notch"],
 )
 def test_bad_3d_specs_fail_with_one_line_naming_the_field(data, field):
     with pytest.raises(ConfigError) as info:
@@ -106,3 +122,116 @@ def test_stable_step_against_a_regular_quartz_tetrahedron(fissured):
     ratio = stable_steps3d(fissured)["grains_ratio"]
     print(f"stable step / regular 2 mm quartz tet (tets only, real mass): {ratio:.3f}")
     assert ratio >= 0.15
+
+
+# -- the lab specimens of paper Table 3 and the penny block, as 3D solids ------------------
+SHAPES = {
+    "rectangle": {"shape": "rectangle"},  # UCS / permeability cylinder D 22.5 x H 45 mm
+    "disk": {"shape": "disk"},  # Brazilian disc D 38 x T 19 mm
+    "semi_disk": {"shape": "semi_disk"},  # NSCB D 50 x T 20 mm, notch 8.33 mm, span 40 mm
+    "penny": {"shape": "penny", "size_mm": 30, "disc_diameter_mm": 8},
+}
+
+
+@pytest.fixture(scope="module", params=list(SHAPES))
+def shaped(request):
+    return request.param, build_specimen({"dimension": 3, "seed": 1,
+                                          "specimen": SHAPES[request.param]})
+
+
+def test_every_shape_is_filled_by_positive_tets(shaped):
+    name, a = shaped
+    solid = a.mesh.grains.solid
+    vol = a.mesh.element_volumes()
+    err = vol.sum() / solid.volume - 1
+    print(f"{name}: {a.n_grains} grains, {a.mesh.n_elements} tets, volume error {err:.1e}, "
+          f"smallest tet {vol.min():.1e} m3")
+    assert abs(err) < 1e-9
+    assert np.all(vol > 0)
+    a.mesh.record().validated()
+
+
+def test_every_shape_has_the_recipe_mineral_fractions(shaped):
+    name, a = shaped
+    target = materials.mineral_table(a.recipe).volume_fraction
+    diff = 100 * (a.volume_fractions() - target)
+    print(f"{name}: volume fraction differences (pp) {np.round(diff, 2)} (tolerance 2.5)")
+    # Few grains (7 in the UCS cylinder at 3-8 mm): the assignment by volume
+    # cannot come closer than about a third of the smallest grain.
+    assert np.all(np.abs(diff) <= 2.5)
+
+
+def test_every_shape_is_reproduced_by_its_seed(shaped):
+    name, a = shaped
+    again = build_specimen({"dimension": 3, "seed": 1, "specimen": SHAPES[name]})
+    for f in dataclasses.fields(a):
+        v = getattr(a, f.name)
+        if isinstance(v, np.ndarray):
+            assert np.array_equal(v, getattr(again, f.name)), f.name
+    assert np.array_equal(a.mesh.node_x, again.mesh.node_x)
+    assert np.array_equal(a.mesh.element_nodes, again.mesh.element_nodes)
+    for k, v in a.mesh.node_sets.items():
+        assert np.array_equal(v, again.mesh.node_sets[k]), k
+
+
+def test_cylinder_sides_and_loading_lines():
+    a = build_specimen({"dimension": 3, "seed": 2, "specimen": SHAPES["disk"]})
+    m = a.mesh
+    s = m.grains.solid
+    x = m.node_x
+    radius = 19e-3
+    assert set(m.node_sets) >= {"z-", "z+", "lateral", "load_y-", "load_y+"}
+    r = np.hypot(*x[m.node_sets["lateral"], :2].T)
+    assert np.all((r >= radius * np.cos(np.pi / len(s.facets)) - 1e-9) & (r <= radius + 1e-9))
+    assert np.allclose(x[m.node_sets["z+"], 2], 19e-3)
+    for name, y in (("load_y+", radius), ("load_y-", -radius)):
+        line = x[m.node_sets[name]]
+        assert len(line) >= 10  # a line along the whole thickness
+        assert np.all(np.hypot(line[:, 0], line[:, 1] - y) <= 0.75 * m.zone_size + 1e-12)
+        assert np.isclose(np.abs(line[:, 1]).max(), radius)  # a vertex of the polygon
+    # The lateral surface is the permeable boundary of the fluid, the ends are not.
+    assert len(m.flow.node_sets["permeable"]) == len(m.flow.node_sets["lateral"]) > 0
+
+
+def test_nscb_notch_supports_and_loading_point():
+    a = build_specimen({"dimension": 3, "seed": 2, "specimen": SHAPES["semi_disk"]})
+    m = a.mesh
+    x = m.node_x
+    half_w, depth, radius = 0.5e-3, 8.33e-3, 25e-3
+    notch = x[m.node_sets["notch"]]
+    assert len(notch) > 0
+    on_wall = np.isclose(np.abs(notch[:, 0]), half_w) & (notch[:, 1] <= depth + 1e-12)
+    on_tip = np.isclose(notch[:, 1], depth) & (np.abs(notch[:, 0]) <= half_w + 1e-12)
+    assert np.all(on_wall | on_tip)
+    assert np.allclose(x[m.node_sets["base"], 1], 0.0)
+    # No material in the slot: no tetrahedron centroid inside it.
+    c = x[m.element_nodes].mean(axis=1)
+    assert not np.any((np.abs(c[:, 0]) < half_w) & (c[:, 1] < depth))
+    for name, (lx, ly) in (("support_x-", (-20e-3, 0.0)), ("support_x+", (20e-3, 0.0)),
+                           ("load_y+", (0.0, radius))):
+        line = x[m.node_sets[name]]
+        assert len(line) >= 5
+        assert np.all(np.hypot(line[:, 0] - lx, line[:, 1] - ly) <= 0.75 * m.zone_size + 1e-12)
+    # The slot's walls carry no sub-contacts: grains do not reach across it.
+    cx = m.contact_x
+    assert not np.any((np.abs(cx[:, 0]) < half_w - 1e-9) & (cx[:, 1] < depth - 1e-9))
+
+
+def test_every_shape_is_closed_by_its_named_sides(shaped):
+    """The sides' triangles with their outward normals enclose the solid: by the divergence
+    theorem, sum(A n . c) / 3 over all of them is the volume (a wrong normal or a missing
+    triangle would show)."""
+    from grainfrac.loading.boundary3d import surface_triangles
+
+    name, a = shaped
+    m = a.mesh
+    flux, total = 0.0, np.zeros(3)
+    for side in m.grains.solid.sides:
+        tri, area, normal = surface_triangles(m, side)
+        centroid = m.node_x[tri].mean(axis=1)
+        flux += np.sum(area * np.einsum("ij,ij->i", normal, centroid)) / 3
+        total += (area[:, None] * normal).sum(axis=0)
+    err = flux / m.grains.solid.volume - 1
+    print(f"{name}: sides {m.grains.solid.sides}; enclosed volume error {err:.1e}")
+    assert abs(err) < 1e-9
+    assert np.all(np.abs(total) < 1e-12)

@@ -21,11 +21,15 @@ from grainfrac.errors import ConfigError
 from grainfrac.geometry.blocks import zone_blocks
 from grainfrac.geometry.meshing import GrainMesh, mesh_grains
 from grainfrac.geometry.meshing3d import GrainMesh3D, mesh_grains3d
-from grainfrac.geometry.solids3d import box_solid
+from grainfrac.geometry.solids3d import specimen_solid
 from grainfrac.geometry.specimens import (
     SHAPES_2D,
     SHAPES_3D,
     SLAB_THICKNESS_3D_MM,
+    DiskSpec,
+    PennySpec,
+    RectangleSpec,
+    SemiDiskSpec,
     SlabSpec,
     SpecimenShapeSpec,
     outline,
@@ -113,11 +117,8 @@ class SpecimenConfig(StrictModel):
         if spec.shape not in shapes:
             raise ValueError(f"specimen.shape: {spec.shape!r} is not built in {self.dimension}D "
                              f"(one of {', '.join(shapes)})")
-        if self.dimension == 3 and isinstance(spec, SlabSpec):
-            if spec.thickness_mm < self.grains.zone_size_mm:
-                raise ValueError(
-                    f"specimen.thickness_mm: must be at least one zone "
-                    f"({self.grains.zone_size_mm:g} mm) in 3D, got {spec.thickness_mm:g}")
+        if self.dimension == 3:
+            _check_3d(spec, self.grains.zone_size_mm)
         clear = self.fissures.clear_radius_mm
         if clear > 0:
             if not (isinstance(spec, SlabSpec) and spec.borehole_diameter_mm > 0):
@@ -144,6 +145,43 @@ class SpecimenConfig(StrictModel):
             if exc.field == "recipe":
                 raise ConfigError("rock", exc.message) from None
             raise
+
+
+def _check_3d(spec, zone: float) -> None:
+    """What a 3D specimen needs beyond its schema: room for a zone or two across each
+    dimension, a notch the mesher can resolve, a cylinder that is one."""
+    least: list[tuple[str, float, float]] = []  # (field, value, minimum zones)
+    if isinstance(spec, SlabSpec):
+        least.append(("thickness_mm", spec.thickness_mm, 1.0))
+    elif isinstance(spec, RectangleSpec):
+        # The 3D rectangle is the cylinder of which the 2D one is the section.
+        if "thickness_mm" in spec.model_fields_set and spec.thickness_mm != spec.width_mm:
+            raise ValueError(
+                f"specimen.thickness_mm: a 3D rectangle is the cylinder of diameter width_mm "
+                f"({spec.width_mm:g} mm); leave thickness_mm out or equal to it, "
+                f"got {spec.thickness_mm:g}")
+        least += [("width_mm", spec.width_mm, 2.0), ("height_mm", spec.height_mm, 1.0)]
+    elif isinstance(spec, DiskSpec):
+        least += [("diameter_mm", spec.diameter_mm, 2.0), ("thickness_mm", spec.thickness_mm, 1.0)]
+    elif isinstance(spec, SemiDiskSpec):
+        least += [("diameter_mm", spec.diameter_mm, 4.0), ("thickness_mm", spec.thickness_mm, 1.0)]
+        if spec.notch_length_mm > 0:
+            # Shorter walls or a narrower tip would be edges below the mesher's bound.
+            least += [("notch_length_mm", spec.notch_length_mm, 1.0),
+                      ("notch_width_mm", spec.notch_width_mm, 0.5)]
+            if spec.support_span_mm <= spec.notch_width_mm + 2 * zone:
+                raise ValueError(
+                    f"specimen.support_span_mm: the supports must stand on the base beside the "
+                    f"notch (> notch_width_mm + 2 zones = {spec.notch_width_mm + 2 * zone:g} "
+                    f"mm), got {spec.support_span_mm:g}")
+    elif isinstance(spec, PennySpec):
+        least += [("disc_diameter_mm", spec.disc_diameter_mm, 2.0),
+                  ("size_mm", spec.size_mm, 4.0)]
+    for name, value, zones in least:
+        if value < zones * zone:
+            raise ValueError(
+                f"specimen.{name}: must be at least {zones:g} zone{'s' * (zones != 1)} "
+                f"({zones * zone:g} mm at zone_size_mm = {zone:g}) in 3D, got {value:g}")
 
 
 def load_specimen_config(path: str | Path) -> tuple[SpecimenConfig, materials.RockRecipe]:
@@ -306,14 +344,13 @@ def build_assembly(config: SpecimenConfig, recipe: materials.RockRecipe) -> Grai
 
 
 def _build_assembly3d(config: SpecimenConfig, recipe: materials.RockRecipe) -> GrainAssembly:
-    """The 3D path: polyhedral grains, tetrahedra, contacts on grain faces."""
+    """The 3D path: polyhedral grains, tetrahedra, contacts on grain faces
+    (:func:`~grainfrac.geometry.solids3d.specimen_solid` gives each shape's solid)."""
     if recipe.intragranular is not None:
         raise ConfigError("rock", "breakable grains (intragranular) are 2D only for now")
     rngs = _random_streams(config.seed)
     zone = config.grains.zone_size_mm * MM
-    spec = config.specimen
-    solid = box_solid("slab", spec.width_mm, spec.height_mm, spec.thickness_mm,
-                      spec.borehole_diameter_mm, zone)
+    solid = specimen_solid(config.specimen, zone)
     cx = tessellate3d(solid, config.grains.min_edge_mm * MM, config.grains.max_edge_mm * MM,
                       zone, rngs["tessellation"])
     mesh = mesh_grains3d(cx, zone, rngs["tessellation"],

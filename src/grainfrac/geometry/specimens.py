@@ -94,14 +94,36 @@ class RectangleSpec(StrictModel):
     thickness_mm: float = Field(22.5, gt=0, description="out-of-plane thickness [mm]")
 
 
+class PennySpec(StrictModel):
+    """Penny-shaped crack block (paper Fig. 8), 3D only: a cube whose mid-plane is made of
+    grain faces, with a pre-cut disc centred on the vertical axis at mid-height."""
+
+    shape: Literal["penny"] = Field("penny", description="selects this shape")
+    size_mm: float = Field(60.0, gt=0, description="edge of the cube [mm]")
+    disc_diameter_mm: float = Field(
+        10.0, gt=0, description="diameter of the pre-cut disc [mm]; < size_mm / 2")
+
+    @model_validator(mode="after")
+    def _disc_fits(self) -> PennySpec:
+        if self.disc_diameter_mm >= 0.5 * self.size_mm:
+            raise ValueError(
+                f"disc_diameter_mm: must be < half of size_mm ({0.5 * self.size_mm:g} mm), "
+                f"got {self.disc_diameter_mm:g}"
+            )
+        return self
+
+
 SpecimenShapeSpec = Annotated[
-    SlabSpec | DiskSpec | SemiDiskSpec | RectangleSpec, Field(discriminator="shape")
+    SlabSpec | DiskSpec | SemiDiskSpec | RectangleSpec | PennySpec, Field(discriminator="shape")
 ]
 
 #: Shapes each dimension builds. In 3D a slab is a box with a borehole along z
-#: through its thickness; the paper's 100 mm cube is the slab 100 x 100 x 100.
+#: through its thickness (the paper's 100 mm cube is the slab 100 x 100 x 100);
+#: ``rectangle`` is the cylinder it is the section of (UCS and permeability:
+#: diameter = width, length = height), ``disk`` and ``semi_disk`` are the
+#: Brazilian and NSCB specimens with their axes along z; ``penny`` is 3D only.
 SHAPES_2D = ("slab", "disk", "semi_disk", "rectangle")
-SHAPES_3D = ("slab",)
+SHAPES_3D = ("slab", "penny", "rectangle", "disk", "semi_disk")
 #: The paper does not state the slab's thickness; 3D slabs default to this (mm).
 SLAB_THICKNESS_3D_MM = 20.0
 

@@ -1,33 +1,42 @@
 """3D Voronoi grains: convex polyhedral pieces with exact flat specimen faces.
 
-Construction (the short-edge rule is step 4):
+Construction (the short-edge rule is step 5):
 
 1. Seeds on a body-centred lattice whose Voronoi cells are Kelvin cells
    (truncated octahedra) of edge ``a = 0.95 (min_edge + max_edge) / 2``, the
-   lattice constant ``2 sqrt(2) a`` rounded per axis so the box faces are
-   lattice mirror planes; each seed is displaced at random by up to
-   ``jitter x a``.
-2. Flat boundaries are exact Voronoi faces: every seed is mirrored across each
-   box face, so the bisector of a seed and its mirror is the box face itself.
-   A borehole gets a ring of seeds, one per wall facet and layer, mirrored
-   across its facet: the bisectors are the facet planes and the radial planes
-   through the facet edges. Consecutive ring cells of a layer form one grain
-   (about ``a`` wide at the wall; the grouping offset is random per layer).
-   Every piece is therefore a convex Voronoi cell, computed by half-space
-   intersection (Qhull), and the pieces tile the faceted solid exactly.
-3. Vertices computed by several cells are merged (1 nm), faces are polygons
+   lattice constant ``2 sqrt(2) a`` rounded per axis so the faces of the
+   bounding box are lattice mirror planes; each seed is displaced at random by
+   up to ``jitter x a`` (and reflected back into the solid).
+2. Flat sides are exact Voronoi faces: every seed is mirrored across each of
+   them, so the bisector of a seed and its mirror is the side itself. Faceted
+   sides (a cylinder's lateral surface, the NSCB arc) are half-spaces added to
+   every cell. A borehole gets a ring of seeds, one per wall facet and layer,
+   mirrored across its facet: the bisectors are the facet planes and the radial
+   planes through the facet edges. Consecutive ring cells of a layer form one
+   grain (about ``a`` wide at the wall; the grouping offset is random per layer).
+3. Solids made of convex parts (the NSCB notch, the penny block's cut plane):
+   each cell is clipped to every part it overlaps (Qhull half-space
+   intersection from an interior point found by linear programming), giving
+   one convex piece per part. Pieces of a cell that touch are one grain, except
+   across the penny's plane, where each piece is its own grain. The penny's
+   pre-cut disc is made of whole faces: seeds on the plane, one inside and one
+   outside each disc facet (mirror images across it), so the bisectors are the
+   facet planes; lattice seeds are kept clear of the disc.
+4. Vertices computed by several pieces are merged (1 nm), faces are polygons
    of merged vertices, degenerate (edge-only) faces are dropped.
-4. Short-edge rule: an edge shorter than ``0.4 x zone_size`` anywhere, or an
+5. Short-edge rule: an edge shorter than ``0.4 x zone_size`` anywhere, or an
    interior grain edge (where three or more grains meet, off the specimen
-   surface) outside ``[min_edge, max_edge]``, halves the displacement of the
-   lattice seeds around it; the cells are recomputed, up to
-   ``repair_rounds`` times. At zero displacement the Kelvin edges are ``a``.
-   Edges that end on the specimen surface or belong to the borehole ring are
-   exempt from the grain bounds (the 2D rule), not from the mesh bound.
+   surface and off cut planes) outside ``[min_edge, max_edge]``, gives the
+   lattice seeds around it a new, smaller displacement; the cells are
+   recomputed, up to ``repair_rounds`` times. At zero displacement the Kelvin
+   edges are ``a``. Edges that end on the specimen surface or a cut plane, or
+   belong to the borehole ring or the disc, are exempt from the grain bounds
+   (the 2D rule), not from the mesh bound.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -35,7 +44,7 @@ import numpy as np
 from scipy.spatial import Delaunay, HalfspaceIntersection, cKDTree
 
 from grainfrac.errors import GeometryError
-from grainfrac.geometry.solids3d import BOREHOLE, BOX_SIDES, Solid
+from grainfrac.geometry.solids3d import BOREHOLE, Solid, polygon_normals
 
 _MERGE_TOL = 1e-9  # m: vertices computed twice by Qhull agree to ~1e-16 m
 _MESH_MIN_EDGE = 0.4  # x zone size: shortest edge the mesher accepts
@@ -67,7 +76,11 @@ class GrainComplex:
     seeds : np.ndarray
         (p, 3) the seed of each piece.
     piece_ring : np.ndarray
-        (p,) True for the borehole ring's pieces.
+        (p,) True for the pieces of the borehole ring and of the penny's disc.
+    piece_seed : np.ndarray | None
+        (p,) the cell (seed index) each piece is cut from; None: piece ``k`` is cell ``k``.
+    piece_part : np.ndarray | None
+        (p,) the part of the solid each piece lies in (:attr:`Solid.parts`); None: one part.
     """
 
     solid: Solid
@@ -79,6 +92,8 @@ class GrainComplex:
     piece_faces: tuple[np.ndarray, ...]
     seeds: np.ndarray
     piece_ring: np.ndarray
+    piece_seed: np.ndarray | None = None
+    piece_part: np.ndarray | None = None
 
     @property
     def n_grains(self) -> int:
@@ -94,6 +109,16 @@ class GrainComplex:
         b = np.where(self.face_pieces[:, 1] >= 0, self.piece_grain[self.face_pieces[:, 1]],
                      self.face_pieces[:, 1])
         return np.column_stack((a, b))
+
+    def cut_faces(self) -> np.ndarray:
+        """Ids of faces on a cut plane (between pieces of one cell in two parts)."""
+        if self.piece_part is None:
+            return np.empty(0, dtype=np.int64)
+        a, b = self.face_pieces[:, 0], self.face_pieces[:, 1]
+        inner = b >= 0
+        bb = np.maximum(b, 0)
+        same = inner & (self.piece_seed[a] == self.piece_seed[bb])
+        return np.flatnonzero(same & (self.piece_part[a] != self.piece_part[bb]))
 
     def interface_faces(self) -> np.ndarray:
         """Ids of faces between two different grains."""
@@ -118,15 +143,32 @@ class GrainComplex:
         return np.bincount(self.piece_grain, weights=self.piece_volumes(),
                            minlength=self.n_grains)
 
-    def edges(self) -> tuple[np.ndarray, list[list[int]]]:
-        """Unique edges (e, 2) (u < v) and the faces each belongs to."""
-        owner: dict[tuple[int, int], list[int]] = {}
-        for f, ring in enumerate(self.faces):
-            nxt = np.roll(ring, -1)
-            for u, v in zip(ring.tolist(), nxt.tolist(), strict=True):
-                owner.setdefault((min(u, v), max(u, v)), []).append(f)
-        keys = sorted(owner)
-        return np.array(keys, dtype=np.int64).reshape(-1, 2), [owner[k] for k in keys]
+    def edges(self) -> tuple[np.ndarray, list[np.ndarray]]:
+        """Unique edges (e, 2) (u < v, sorted) and the faces each belongs to (ascending)."""
+        pairs, _, face, start = self._edge_table
+        return pairs, np.split(face, start[1:])
+
+    @functools.cached_property
+    def _edge_table(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Edges (e, 2); per (edge, face) row, sorted by edge then face: the edge and the
+        face; and where each edge's rows start. Computed once (the repair rounds and the
+        mesher ask for it several times)."""
+        lens = np.array([len(r) for r in self.faces])
+        flat = np.concatenate(self.faces)
+        first = np.cumsum(lens) - lens
+        nxt = np.arange(1, len(flat) + 1)
+        nxt[first + lens - 1] = first
+        u, v = flat, flat[nxt]
+        face = np.repeat(np.arange(len(self.faces)), lens)
+        lo, hi = np.minimum(u, v), np.maximum(u, v)
+        order = np.lexsort((face, hi, lo))
+        lo, hi, face = lo[order], hi[order], face[order]
+        new = np.ones(len(lo), dtype=bool)
+        new[1:] = (lo[1:] != lo[:-1]) | (hi[1:] != hi[:-1])
+        start = np.flatnonzero(new)
+        pairs = np.column_stack((lo[start], hi[start])).astype(np.int64)
+        edge = np.cumsum(new) - 1
+        return pairs, edge, face, start
 
     def edge_classes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Edge vertex pairs, lengths, and a mask of interior grain edges.
@@ -134,16 +176,21 @@ class GrainComplex:
         An interior grain edge lies on no specimen face and has three or more
         grains around it (the edges the grain-size bounds act on).
         """
-        pairs, owners = self.edges()
+        pairs, edge, face, _ = self._edge_table
         length = np.linalg.norm(self.vertices[pairs[:, 1]] - self.vertices[pairs[:, 0]], axis=1)
-        grains = self.face_grains()
-        interior = np.zeros(len(pairs), dtype=bool)
-        for e, fl in enumerate(owners):
-            g = grains[fl]
-            if np.all(g[:, 1] >= 0):
-                interior[e] = len(np.unique(g)) >= 3
+        grains = self.face_grains()[face]
+        n_e = len(pairs)
+        on_face_side = np.zeros(n_e, dtype=bool)
+        np.logical_or.at(on_face_side, edge, grains[:, 1] < 0)
+        # Distinct grains around each edge: unique (edge, grain) rows, counted per edge.
+        both = np.unique(np.column_stack((np.concatenate((edge, edge)),
+                                          np.concatenate((grains[:, 0], grains[:, 1])))),
+                         axis=0)
+        interior = ~on_face_side & (np.bincount(both[:, 0], minlength=n_e) >= 3)
         on_surface = np.zeros(len(self.vertices), dtype=bool)
-        for f in np.flatnonzero(self.face_pieces[:, 1] < 0):
+        # A cut plane is an imposed surface like the specimen's: edges ending on it
+        # are cut by it, as the 2D rule exempts edges cut by the boundary.
+        for f in np.concatenate((np.flatnonzero(self.face_pieces[:, 1] < 0), self.cut_faces())):
             on_surface[self.faces[f]] = True
         interior &= ~(on_surface[pairs[:, 0]] | on_surface[pairs[:, 1]])
         # Edges on the borehole ring's pieces are exempt like surface-cut ones.
@@ -206,30 +253,44 @@ def tessellate3d(
     jitter
         Largest seed displacement as a fraction of the Kelvin edge.
     repair_rounds
-        Rounds of the short-edge rule (module docstring, step 4).
+        Rounds of the short-edge rule (module docstring, step 5).
     """
     if not 0 < min_edge < max_edge:
         raise GeometryError(f"need 0 < min_edge < max_edge, got {min_edge:g}, {max_edge:g}")
     a = target_edge(min_edge, max_edge)
+    # The penny's plane lies on a lattice level (Kelvin vertices lie every quarter
+    # lattice constant along z, so no height avoids them); measured on seeds 1-3,
+    # a level gave fewer short edges on the plane (1-9) than the quarter (7-17)
+    # or eighth (5-8) positions.
     base, _ = _lattice(solid, a)
     ring = _Ring.draw(solid, a, rng) if solid.has_borehole else None
     if ring is not None and len(base):
         r = np.hypot(base[:, 0], base[:, 1])
         base = base[r >= solid.apothem + _ring_clearance(solid, a)]
+    if len(solid.facets) or solid.notch is not None or solid.disc_radius > 0:
+        base = base[_lattice_keep(solid, base, a, jitter)]
+    disc = _Disc.draw(solid, a, rng) if solid.disc_radius > 0 else None
     n_lat = len(base)
     n_facets = solid.borehole_facets
     displacement = _displacements(rng, n_lat, jitter * a)
     ring_seeds = ring.seeds() if ring is not None else np.empty((0, 3))
-    ring_piece = np.arange(n_lat + len(ring_seeds)) >= n_lat
-    grain_of_piece = np.arange(n_lat + len(ring_seeds))
+    n_ring = len(ring_seeds)
+    disc_seeds = disc.seeds if disc is not None else np.empty((0, 3))
+    n_seeds = n_lat + n_ring + len(disc_seeds)
+    seed_ring = np.arange(n_seeds) >= n_lat
+    grain_of_seed = np.arange(n_seeds)
     if ring is not None:
-        grain_of_piece[n_lat:] = n_lat + ring.grain
+        grain_of_seed[n_lat:n_lat + n_ring] = n_lat + ring.grain
+    if disc is not None:
+        grain_of_seed[n_lat + n_ring:] = int(grain_of_seed[:n_lat + n_ring].max(initial=-1)) \
+            + 1 + disc.grain
     best, best_edge = None, -1.0
     for _ in range(repair_rounds + 1):
-        seeds = _inside_box(solid, base + displacement, a)
+        seeds = _inside_solid(solid, base + displacement, a)
         if ring is not None:
             ring_seeds = ring.seeds()
-        cx = _complex(solid, np.vstack((seeds, ring_seeds)), grain_of_piece, ring_piece)
+        cx = _complex(solid, np.vstack((seeds, ring_seeds, disc_seeds)), grain_of_seed,
+                      seed_ring, slice(n_lat, n_lat + n_ring))
         bad, shortest = _violations(cx, min_edge, max_edge, zone_size)
         # A round can make things worse elsewhere: keep the complex whose shortest
         # edge is longest (it sets the mesh's stable step).
@@ -237,18 +298,38 @@ def tessellate3d(
             best, best_edge = cx, shortest
         if len(bad) == 0:
             break
+        bad = np.unique(cx.piece_seed[bad]) if cx.piece_seed is not None else bad
         lat = bad[bad < n_lat]
         # A fresh, smaller displacement: halving alone would converge on the bare
         # lattice, whose edges against the borehole ring can themselves be short.
         amplitude = _REPAIR_SHRINK * np.linalg.norm(displacement[lat], axis=1)
         displacement[lat] = _displacements(rng, len(lat), 1.0) * amplitude[:, None]
-        if ring is not None and np.any(bad >= n_lat):
-            ring.redraw(np.unique((bad[bad >= n_lat] - n_lat) // n_facets), rng)
+        in_ring = bad[(bad >= n_lat) & (bad < n_lat + n_ring)]
+        if ring is not None and len(in_ring):
+            ring.redraw(np.unique((in_ring - n_lat) // n_facets), rng)
     cx = best
     volume = float(cx.piece_volumes().sum())
     if abs(volume - solid.volume) > 1e-9 * solid.volume:
         raise GeometryError(f"the grains fill {volume:.9g} m3 of a {solid.volume:.9g} m3 solid")
+    if disc is not None:
+        area = float(cx.face_areas()[disc_faces(cx)].sum())
+        if abs(area - solid.disc_area) > 1e-9 * solid.disc_area:
+            raise GeometryError(f"the pre-cut disc has {area:.9g} m2 of grain faces, its "
+                                f"polygon {solid.disc_area:.9g} m2")
     return cx
+
+
+def disc_faces(cx: GrainComplex) -> np.ndarray:
+    """Ids of the cut-plane faces inside the penny's faceted disc (whole faces, by
+    construction, so a face is inside when its centroid is)."""
+    solid = cx.solid
+    faces = cx.cut_faces()
+    if solid.disc_radius <= 0 or len(faces) == 0:
+        return np.empty(0, dtype=np.int64)
+    centre = np.array([cx.vertices[cx.faces[f]].mean(axis=0) for f in faces])
+    apothem = solid.disc_vertex_radius * math.cos(math.pi / solid.disc_facets)
+    reach = np.max(centre @ polygon_normals(solid.disc_facets).T, axis=1)
+    return faces[reach < apothem]
 
 
 def _displacements(rng: np.random.Generator, n: int, radius: float) -> np.ndarray:
@@ -276,8 +357,27 @@ def _lattice(solid: Solid, a: float) -> tuple[np.ndarray, None]:
     return pts[inside], None
 
 
-def _inside_box(solid: Solid, x: np.ndarray, a: float) -> np.ndarray:
-    """Reflect displaced seeds back into the box, at least 2 % of ``a`` from each face."""
+def _lattice_keep(solid: Solid, base: np.ndarray, a: float, jitter: float) -> np.ndarray:
+    """Lattice points to keep: inside the facets and out of the notch slot (the seeds
+    are reflected back each round), and clear of the penny's disc."""
+    tol = 1e-9 * float(solid.extent.max())
+    keep = np.ones(len(base), dtype=bool)
+    if len(solid.facets):
+        keep &= np.max(base @ solid.facets[:, :3].T - solid.facets[:, 3], axis=1) <= tol
+    if solid.notch is not None:
+        keep &= solid.notch_distance(base) > 0
+    if solid.disc_radius > 0:
+        # Lower bound of the distance to the disc polygon (it lies in its circle); a
+        # displaced seed stays at least the disc's clearance away.
+        r = np.hypot(base[:, 0], base[:, 1])
+        d = np.hypot(np.maximum(r - solid.disc_vertex_radius, 0.0), base[:, 2] - solid.cut_z)
+        keep &= d >= _Disc.clearance(solid, a) + jitter * a
+    return keep
+
+
+def _inside_solid(solid: Solid, x: np.ndarray, a: float) -> np.ndarray:
+    """Reflect displaced seeds back into the solid, at least 2 % of ``a`` inside each
+    face of the bounding box and each facet (interior points of their cells)."""
     margin = 0.02 * a
     x = x.copy()
     for k in range(3):
@@ -286,6 +386,18 @@ def _inside_box(solid: Solid, x: np.ndarray, a: float) -> np.ndarray:
         x[:, k] = np.where(x[:, k] - lo < margin, lo + d_lo, x[:, k])
         d_hi = np.maximum(np.abs(hi - x[:, k]), margin)
         x[:, k] = np.where(hi - x[:, k] < margin, hi - d_hi, x[:, k])
+    if len(solid.facets):
+        n, d = solid.facets[:, :3], solid.facets[:, 3]
+        # Across the most violated facet; a few passes settle the polygon's corners.
+        for _ in range(3):
+            depth = d - x @ n.T  # > 0 inside
+            worst = np.argmin(depth, axis=1)
+            dist = depth[np.arange(len(x)), worst]
+            move = dist < margin
+            if not move.any():
+                break
+            shift = np.maximum(np.abs(dist[move]), margin) - dist[move]
+            x[move] -= shift[:, None] * n[worst[move]]
     return x
 
 
@@ -340,13 +452,9 @@ class _Ring:
         n = solid.borehole_facets
         layers = _ring_layers(solid, a)
         width = 2 * solid.borehole_radius * math.sin(math.pi / n)
-        per_grain = max(1, min(n, round(a / width)))
-        n_groups = max(1, round(n / per_grain))
         grain = []
         for layer in range(layers):
-            offset = int(rng.integers(per_grain))
-            # Sectors k belong to group floor(((k + offset) mod n) * n_groups / n).
-            grain.append(layer * n_groups + ((np.arange(n) + offset) % n) * n_groups // n)
+            grain.append(layer * _n_groups(n, width, a) + _ring_groups(n, width, a, rng))
         ring = cls(solid, a, np.zeros(layers), np.zeros(layers), np.concatenate(grain))
         ring.redraw(np.arange(layers), rng)
         return ring
@@ -372,24 +480,83 @@ class _Ring:
                                 np.outer(r, np.sin(phi)).ravel(), np.repeat(z, n)))
 
 
-def _mirrors(solid: Solid, seeds: np.ndarray, n_lat: int) -> tuple[np.ndarray, np.ndarray]:
-    """Mirror images and their side index: each seed across each box face; ring
-    seeds also across their facet (and those images across the z faces)."""
+def _n_groups(n: int, width: float, a: float) -> int:
+    per_grain = max(1, min(n, round(a / width)))
+    return max(1, round(n / per_grain))
+
+
+def _ring_groups(n: int, width: float, a: float, rng: np.random.Generator) -> np.ndarray:
+    """Group of each of ``n`` consecutive sectors of ``width`` around a ring: groups about
+    ``a`` wide, starting at a random sector."""
+    per_grain = max(1, min(n, round(a / width)))
+    n_groups = _n_groups(n, width, a)
+    offset = int(rng.integers(per_grain))
+    # Sectors k belong to group floor(((k + offset) mod n) * n_groups / n).
+    return ((np.arange(n) + offset) % n) * n_groups // n
+
+
+@dataclass(frozen=True)
+class _Disc:
+    """The penny's disc: seeds on the cut plane, an inner and an outer one per disc
+    facet, mirror images across it, so that the facet planes are their bisectors.
+
+    The inner seeds sit at the distance ``t`` inside the facets that makes the disc
+    centre and the polygon's vertices equally far from their nearest inner seed
+    (``D``); no other seed claims a point of the disc if it is farther than ``D``
+    from all of it, and the lattice is kept farther (:meth:`clearance`). The inner
+    cells meet on the axis, so the disc centre is a vertex: a fluid node.
+    """
+
+    seeds: np.ndarray  # (2 n, 3): inner seeds, then outer seeds
+    grain: np.ndarray  # (2 n,) group of each seed, from 0
+
+    @staticmethod
+    def geometry(solid: Solid) -> tuple[int, float, float, float]:
+        """Facets, apothem, chord and seed offset ``t`` of the disc (m)."""
+        n, r = solid.disc_facets, solid.disc_vertex_radius
+        apothem = r * math.cos(math.pi / n)
+        chord = 2 * r * math.sin(math.pi / n)
+        t = (apothem ** 2 - 0.25 * chord ** 2) / (2 * apothem)
+        return n, apothem, chord, t
+
+    @staticmethod
+    def clearance(solid: Solid, a: float) -> float:
+        """Lattice seeds stay this far from the disc (m): 30 % beyond ``D`` for
+        exactness, and at least ``a`` so that the disc's cells are a zone or so thick."""
+        _, apothem, chord, t = _Disc.geometry(solid)
+        reach = max(math.hypot(t, 0.5 * chord), apothem - t)
+        return max(1.3 * reach, a)
+
+    @classmethod
+    def draw(cls, solid: Solid, a: float, rng: np.random.Generator) -> _Disc:
+        n, apothem, chord, t = cls.geometry(solid)
+        normal = polygon_normals(n)
+        z = np.full((n, 1), solid.cut_z)
+        inner = np.hstack(((apothem - t) * normal[:, :2], z))
+        outer = np.hstack(((apothem + t) * normal[:, :2], z))
+        groups_in = _ring_groups(n, chord, a, rng)
+        groups_out = groups_in.max() + 1 + _ring_groups(n, chord, a, rng)
+        return cls(np.vstack((inner, outer)), np.concatenate((groups_in, groups_out)))
+
+
+def _mirrors(solid: Solid, seeds: np.ndarray, ring: slice) -> tuple[np.ndarray, np.ndarray]:
+    """Mirror images and their side index: each seed across each flat side; borehole
+    ring seeds also across their facet (and those images across the z faces)."""
     pts, side = [], []
-    for k in range(3):
-        for s, plane in enumerate((solid.lo[k], solid.hi[k])):
-            m = seeds.copy()
-            m[:, k] = 2 * plane - m[:, k]
-            pts.append(m)
-            side.append(np.full(len(m), 2 * k + s))
+    names = solid.sides
+    for f in solid.flat_sides:
+        m = seeds.copy()
+        m[:, f.axis] = 2 * f.value - m[:, f.axis]
+        pts.append(m)
+        side.append(np.full(len(m), names.index(f.name)))
     if solid.has_borehole:
-        ring = seeds[n_lat:]
+        ring_seeds = seeds[ring]
         normals = solid.facet_normals()
-        facet = np.argmax(ring @ normals.T, axis=1)
+        facet = np.argmax(ring_seeds @ normals.T, axis=1)
         nrm = normals[facet]
-        dist = np.einsum("ij,ij->i", ring, nrm) - solid.apothem
-        m = ring - 2 * dist[:, None] * nrm
-        b = len(BOX_SIDES)
+        dist = np.einsum("ij,ij->i", ring_seeds, nrm) - solid.apothem
+        m = ring_seeds - 2 * dist[:, None] * nrm
+        b = names.index(BOREHOLE)
         pts.append(m)
         side.append(np.full(len(m), b))
         for plane in (solid.lo[2], solid.hi[2]):
@@ -400,36 +567,100 @@ def _mirrors(solid: Solid, seeds: np.ndarray, n_lat: int) -> tuple[np.ndarray, n
     return np.vstack(pts), np.concatenate(side)
 
 
-def _complex(solid: Solid, seeds: np.ndarray, piece_grain: np.ndarray, ring_piece: np.ndarray
-             ) -> GrainComplex:
-    """Voronoi cells of the seeds among their mirrors, as a face complex."""
-    mirrors, side = _mirrors(solid, seeds, int(np.sum(~ring_piece)))
+# Half-space labels: (kind, value). Kind 0: a neighbour, value the seed (>= 0) or
+# -1 - side for a mirror or a part's surface plane; kind 1: an internal cut plane,
+# value the part on its other side; kind 2: a facet, value its index (a piece can
+# have several faces on the faceted side, which must not be taken for one).
+_NEIGHBOUR, _CUT, _FACET = 0, 1, 2
+
+
+def _cell_faces(v: np.ndarray, rows: np.ndarray, labels: np.ndarray, scale: float) -> list:
+    """Faces of a convex polytope: its half-spaces holding three or more vertices."""
+    dist = v @ rows[:, :3].T + rows[:, 3]  # (k, half-spaces), <= 0 inside
+    on = np.abs(dist) < 1e-9 * scale
+    faces = []
+    for j in range(len(rows)):
+        ids = np.flatnonzero(on[:, j])
+        if len(ids) >= 3:
+            faces.append(((int(labels[j, 0]), int(labels[j, 1])), rows[j, :3], ids))
+    return faces
+
+
+def _chebyshev(rows: np.ndarray) -> tuple[np.ndarray, float]:
+    """Centre and radius of the largest ball in ``rows . (x, 1) <= 0`` (unit normals)."""
+    from scipy.optimize import linprog
+
+    res = linprog(np.array([0.0, 0.0, 0.0, -1.0]),
+                  A_ub=np.column_stack((rows[:, :3], np.ones(len(rows)))), b_ub=-rows[:, 3],
+                  bounds=[(None, None)] * 3 + [(0.0, None)], method="highs")
+    if res.status != 0:
+        return np.zeros(3), 0.0
+    return res.x[:3], float(res.x[3])
+
+
+def _split_parts(solid: Solid, v: np.ndarray, rows: np.ndarray, labels: np.ndarray,
+                 scale: float):
+    """The pieces of a cell (vertices ``v`` of the half-spaces ``rows``), one per part
+    of the solid it overlaps: ``(part, vertices, rows, labels)``."""
+    if not solid.parts:
+        yield 0, v, rows, labels
+        return
+    tol = 1e-9 * scale
+    for p, part in enumerate(solid.parts):
+        s = v @ part.planes[:, :3].T - part.planes[:, 3]  # (vertices, planes), <= 0 in part
+        if np.all(s <= tol):
+            yield p, v, rows, labels  # the whole cell lies in this part
+            return
+        if np.any(np.all(s >= -tol, axis=0)):
+            continue  # a plane of the part has the whole cell on its far side
+        p_rows = np.column_stack((part.planes[:, :3], -part.planes[:, 3]))
+        p_labels = np.array([(_NEIGHBOUR, -1 - solid.sides.index(name)) if name
+                             else (_CUT, across)
+                             for name, across in zip(part.side, part.across, strict=True)])
+        all_rows = np.vstack((rows, p_rows))
+        centre, radius = _chebyshev(all_rows)
+        if radius <= tol:
+            continue
+        vp = HalfspaceIntersection(all_rows, centre).intersections
+        yield p, vp, all_rows, np.vstack((labels, p_labels))
+
+
+def _complex(solid: Solid, seeds: np.ndarray, grain_of_seed: np.ndarray,
+             seed_ring: np.ndarray, ring: slice) -> GrainComplex:
+    """Voronoi cells of the seeds among their mirrors, clipped to the solid's facets and
+    cut into its parts, as a face complex (``ring``: the borehole ring's seeds)."""
+    mirrors, side = _mirrors(solid, seeds, ring)
     points = np.vstack((seeds, mirrors))
     n = len(seeds)
     label = np.concatenate((np.arange(n), -1 - side))
     tri = Delaunay(points)
     indptr, indices = tri.vertex_neighbor_vertices
     scale = float(solid.extent.max())
+    clip = solid.clip_halfspaces()
+    clip_labels = np.column_stack((np.full(len(clip), _FACET), np.arange(len(clip))))
+    facet_label = -1 - solid.sides.index(solid.facet_side) if len(clip) else 0
 
-    raw_vertices, cell_faces = [], []
+    # Pieces: (seed, part, vertices, faces).
+    pieces = []
     for i in range(n):
         nb = indices[indptr[i]:indptr[i + 1]]
         normal = points[nb] - points[i]
         normal /= np.linalg.norm(normal, axis=1)[:, None]
         offset = -np.einsum("ij,ij->i", normal, 0.5 * (points[nb] + points[i]))
-        hs = HalfspaceIntersection(np.column_stack((normal, offset)), points[i])
-        v = hs.intersections
-        dist = v @ normal.T + offset  # (k, neighbours), <= 0 inside
-        on = np.abs(dist) < 1e-9 * scale
-        faces = []
-        for j in range(len(nb)):
-            ids = np.flatnonzero(on[:, j])
-            if len(ids) >= 3:
-                faces.append((int(label[nb[j]]), normal[j], ids))
-        raw_vertices.append(v)
-        cell_faces.append(faces)
+        rows = np.column_stack((normal, offset))
+        labels = np.column_stack((np.zeros(len(nb), dtype=np.int64), label[nb]))
+        if len(clip):
+            rows = np.vstack((rows, clip))
+            labels = np.vstack((labels, clip_labels))
+        v = HalfspaceIntersection(rows, points[i]).intersections
+        for part, vp, prows, plabels in _split_parts(solid, v, rows, labels, scale):
+            pieces.append((i, part, vp, _cell_faces(vp, prows, plabels, scale)))
+    piece_seed = np.array([p[0] for p in pieces], dtype=np.int64)
+    piece_part = np.array([p[1] for p in pieces], dtype=np.int64)
+    piece_of = {(i, part): k for k, (i, part, _, _) in enumerate(pieces)}
 
-    # Merge vertices computed by several cells (and duplicates from degenerate corners).
+    # Merge vertices computed by several pieces (and duplicates from degenerate corners).
+    raw_vertices = [p[2] for p in pieces]
     allv = np.vstack(raw_vertices)
     start = np.cumsum([0] + [len(v) for v in raw_vertices])
     gid = _cluster(allv, _MERGE_TOL)
@@ -438,38 +669,83 @@ def _complex(solid: Solid, seeds: np.ndarray, piece_grain: np.ndarray, ring_piec
     np.add.at(vertices, gid, allv)
     vertices /= np.bincount(gid, minlength=n_v)[:, None]
 
-    face_key: dict[tuple[int, int], int] = {}
+    face_key: dict[tuple[int, ...], int] = {}
     faces, face_pieces, face_normal = [], [], []
-    piece_faces: list[list[int]] = [[] for _ in range(n)]
-    for i, fl in enumerate(cell_faces):
-        for other, nrm, ids in fl:
-            vid = np.unique(gid[start[i] + ids])
+    piece_faces: list[list[int]] = [[] for _ in pieces]
+    for k, (i, part, _, fl) in enumerate(pieces):
+        for (kind, value), nrm, ids in fl:
+            if kind == _CUT:
+                other = piece_of.get((i, value))
+            elif kind == _FACET:
+                other = facet_label
+            elif value >= 0:
+                other = piece_of.get((value, part))
+            else:
+                other = value
+            if other is None:
+                raise GeometryError(f"cell {i}: a face of its piece in part {part} has no "
+                                    "piece on its other side (a sliver below 1 nm)")
+            vid = np.unique(gid[start[k] + ids])
             if len(vid) < 3:
                 continue
-            key = (min(i, other), max(i, other)) if other >= 0 else (i, other)
+            if kind == _FACET:
+                key = (k, other, value)
+            else:
+                key = (min(k, other), max(k, other)) if other >= 0 else (k, other)
             if key in face_key:
-                piece_faces[i].append(face_key[key])
+                piece_faces[k].append(face_key[key])
                 continue
             ring = _order_polygon(vertices[vid], nrm, vid)
             if _polygon_area(vertices[ring]) < 1e-12 * scale ** 2:
                 continue
             face_key[key] = len(faces)
-            piece_faces[i].append(len(faces))
+            piece_faces[k].append(len(faces))
             faces.append(ring)
-            face_pieces.append((i, other))
+            face_pieces.append((k, other))
             face_normal.append(nrm)
+    face_pieces = np.array(face_pieces, dtype=np.int64)
+    split = bool(solid.parts)
     cx = GrainComplex(
         solid=solid,
         vertices=vertices,
         faces=tuple(faces),
-        face_pieces=np.array(face_pieces, dtype=np.int64),
+        face_pieces=face_pieces,
         face_normal=np.array(face_normal),
-        piece_grain=np.asarray(piece_grain, dtype=np.int64),
+        piece_grain=_grains(solid, grain_of_seed[piece_seed], piece_part, face_pieces),
         piece_faces=tuple(np.array(p, dtype=np.int64) for p in piece_faces),
-        seeds=seeds,
-        piece_ring=ring_piece,
+        seeds=seeds[piece_seed],
+        piece_ring=seed_ring[piece_seed],
+        piece_seed=piece_seed if split else None,
+        piece_part=piece_part if split else None,
     )
     return _compact(cx)
+
+
+def _grains(solid: Solid, group: np.ndarray, part: np.ndarray, face_pieces: np.ndarray
+            ) -> np.ndarray:
+    """Grain of each piece: the pieces of one group (a cell, or a ring grain) that touch
+    form one grain, except across the penny's plane (``split_grains``).
+
+    Grains are numbered by group, then by their first piece; with one grain per
+    group (every solid without parts) the grain is the group itself.
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    n = len(group)
+    a, b = face_pieces[:, 0], face_pieces[:, 1]
+    inner = b >= 0
+    a, b = a[inner], b[inner]
+    join = group[a] == group[b]
+    if solid.split_grains:
+        join &= part[a] == part[b]
+    g = coo_matrix((np.ones(int(join.sum())), (a[join], b[join])), shape=(n, n))
+    _, comp = connected_components(g, directed=False)
+    first = np.full(comp.max() + 1, n)
+    np.minimum.at(first, comp, np.arange(n))
+    key = group.astype(np.int64) * (n + 1) + first[comp]
+    _, grain = np.unique(key, return_inverse=True)
+    return grain.ravel().astype(np.int64)
 
 
 def _compact(cx: GrainComplex) -> GrainComplex:
@@ -479,7 +755,7 @@ def _compact(cx: GrainComplex) -> GrainComplex:
     remap[used] = np.arange(len(used))
     return GrainComplex(cx.solid, cx.vertices[used], tuple(remap[f] for f in cx.faces),
                         cx.face_pieces, cx.face_normal, cx.piece_grain, cx.piece_faces,
-                        cx.seeds, cx.piece_ring)
+                        cx.seeds, cx.piece_ring, cx.piece_seed, cx.piece_part)
 
 
 def _cluster(x: np.ndarray, tol: float) -> np.ndarray:
@@ -516,12 +792,9 @@ def _violations(cx: GrainComplex, min_edge: float, max_edge: float, zone_size: f
     bad |= interior & ((length < min_edge) | (length > max_edge))
     if not bad.any():
         return np.empty(0, dtype=np.int64), float(length.min())
-    _, owners = cx.edges()
-    pieces = set()
-    for e in np.flatnonzero(bad):
-        for f in owners[e]:
-            pieces.update(int(p) for p in cx.face_pieces[f] if p >= 0)
-    return np.array(sorted(pieces), dtype=np.int64), float(length.min())
+    _, edge, face, _ = cx._edge_table
+    around = cx.face_pieces[face[bad[edge]]].ravel()
+    return np.unique(around[around >= 0]), float(length.min())
 
 
 def short_edge_report(cx: GrainComplex, min_edge: float, max_edge: float, zone_size: float
@@ -535,5 +808,5 @@ def short_edge_report(cx: GrainComplex, min_edge: float, max_edge: float, zone_s
     }
 
 
-__all__ = ["BOREHOLE", "GrainComplex", "kelvin_cell_volume", "short_edge_report",
+__all__ = ["BOREHOLE", "GrainComplex", "disc_faces", "kelvin_cell_volume", "short_edge_report",
            "target_edge", "tessellate3d"]

@@ -1,7 +1,8 @@
 """Boundary loads of 3D assemblies as nodal forces, from the surface triangles.
 
 A 3D mesh (:class:`~grainfrac.geometry.meshing3d.GrainMesh3D`) lists, for each
-named side (``x-``, ``x+``, ``y-``, ``y+``, ``z-``, ``z+``, ``borehole``), the
+named side (``x-``, ``x+``, ``y-``, ``y+``, ``z-``, ``z+``, ``borehole``; a cylinder's
+``lateral``, the NSCB's ``base``, ``arc`` and ``notch``), the
 triangles of the grain faces lying on it (``surface_triangles``, node ids).
 On a linear triangle the consistent nodal load of a uniform traction ``t`` is
 ``t A / 3`` at each corner (the integral of each linear shape function over the
@@ -38,8 +39,9 @@ def surface_triangles(mesh: GrainMesh3D, side: str) -> tuple[np.ndarray, np.ndar
     normals ``(t, 3)`` (out of the rock).
 
     The normal is that of the triangle's plane, oriented away from the rock: along the
-    side's normal for a box side, towards the borehole axis for the borehole wall (the
-    mesher's winding is not relied on).
+    side's normal for a box side, towards the borehole axis for the borehole wall, and
+    for the other sides of 3D solids the way that leaves the solid (the mesher's winding
+    is not relied on).
     """
     if side not in mesh.surface_triangles:
         raise KeyError(f"no surface {side!r}; the mesh has {', '.join(mesh.surface_triangles)}")
@@ -52,8 +54,15 @@ def surface_triangles(mesh: GrainMesh3D, side: str) -> tuple[np.ndarray, np.ndar
         # Out of the rock is into the hole: against the radial direction from the z axis.
         centroid = p.mean(axis=1)
         out = -np.column_stack((centroid[:, 0], centroid[:, 1], np.zeros(len(tri))))
-    else:
+    elif side in SIDE_NORMALS:
         out = np.broadcast_to(np.asarray(SIDE_NORMALS[side]), normal.shape)
+    else:
+        # The other sides of the 3D solids (a cylinder's lateral surface, the NSCB arc,
+        # base and notch): a point just off the triangle along its outward normal
+        # leaves the solid (1 um: far above round-off, far below a zone).
+        solid = mesh.grains.solid
+        probe = p.mean(axis=1) + 1e-6 * normal
+        out = np.where(solid.inside(probe)[:, None], -normal, normal)
     normal *= np.sign(np.einsum("ij,ij->i", normal, out))[:, None]
     return tri, 0.5 * twice, normal
 
