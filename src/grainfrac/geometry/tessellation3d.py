@@ -735,9 +735,8 @@ def _complex(solid: Solid, seeds: np.ndarray, grain_of_seed: np.ndarray,
 
 
 # Local repair of faceted and cut solids: sweeps over the lattice seeds next to edges
-# below the mesh bound, tries per seed (measured on the UCS cylinder and Brazilian
-# disc, seeds 1-2: 14-24 short edges -> 3-7 at 6 sweeps x 10 tries, half as many
-# at 3 x 4).
+# below the mesh bound, and tries per seed (seeds 0-3, 3-8 mm grains: UCS cylinder
+# 14 -> 6-8 short edges, Brazilian disc 22-27 -> 6-12).
 _LOCAL_SWEEPS = 4
 _LOCAL_TRIES = 6
 # Tries in all: each costs a Delaunay of all seeds and mirrors (25 ms on the 60 mm
@@ -756,9 +755,11 @@ def _local_repair(cx: GrainComplex, seeds: np.ndarray, base: np.ndarray,
     global rounds redraw them all at once and never settle (and their shrinking
     steps lead back to the lattice, which meets the facets at fixed places). Here a
     seed next to a short edge gets a fresh displacement about its lattice point,
-    kept only if the cells around it (its neighbours before and after, uncut) then
-    have fewer edges below the bound, or the same number and a longer shortest one.
-    The whole complex is kept only if it is better by the same measure.
+    kept only if the cells around it (its neighbours before and after, uncut) are
+    better by :func:`_better` (no more edges below the bound, no shorter shortest
+    edge, one of the two improved); after each sweep the whole complex is kept if
+    it is better by the same rule. Edges made by the parts' cut planes are not
+    judged (the cells are uncut), only found as the next sweep's seeds.
     """
     solid = cx.solid
     limit = _MESH_MIN_EDGE * zone_size
