@@ -3,15 +3,23 @@
 Every case is a function ``case(seed=0) -> list[Comparison]`` registered in
 :data:`CASES` under its command-line name; it builds, runs and measures its own
 model, prints nothing and raises only on a failure to run (a miss of a
-tolerance is a failed :class:`Comparison`, not an exception). Future cases
-(``cubic-law3d``, ``penny``) plug in by adding an entry.
+tolerance is a failed :class:`Comparison`, not an exception). A new case plugs in by
+adding an entry.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 
-from grainfrac.verification import elastic, elastic3d, hydraulic, hydraulic3d, kgd, kgd_toughness
+from grainfrac.verification import (
+    elastic,
+    elastic3d,
+    hydraulic,
+    hydraulic3d,
+    kgd,
+    kgd_toughness,
+    penny,
+)
 from grainfrac.verification.report import (
     ROW_KEYS,
     Comparison,
@@ -31,6 +39,7 @@ CASES: dict[str, Callable[..., list[Comparison]]] = {
     "lame3d": elastic3d.lame3d,
     "kirsch3d": elastic3d.kirsch3d,
     "cubic-law3d": hydraulic3d.cubic_law3d,
+    "penny": penny.penny,
 }
 
 __all__ = ["CASES", "ROW_KEYS", "Comparison", "all_passed", "comparison_table",

@@ -16,7 +16,8 @@ How the simulated quantities are read (one realisation of the grains):
 
 - **radius**: that of the disc with the area of the plane's sub-contacts open by more
   than ``OPENING_THRESHOLD`` of the opening at the injection point (as the KGD case
-  reads its tip);
+  reads its tip) that hold fluid (the M-vertex has no lag; the open, dry rim ahead of
+  the fluid is reported apart);
 - **opening at the well**: the mean opening of the plane's sub-contacts at the
   injection point (their change since injection began);
 - **pressure at half the radius**: the mean fluid pressure, less the confinement, of
@@ -95,6 +96,7 @@ class PennyMeasure:
 
     time: float
     radius: float
+    dry_rim: float  # open but dry: radius of all the open plane less ``radius``
     opening_well: float
     pressure_half_radius: float
     max_off_plane_opening: float
@@ -192,12 +194,16 @@ def penny_run(config: PennyConfig | None = None, seed: int = 0) -> PennyRun:
             hm.advance(min(config.fluid_step, t - (mech.time - start)), config.rate)
         opening = contact_opening(assembly, mech.u) - opening0
         w_well = float(np.mean(opening[well & on_plane]))
+        # The M-vertex has no fluid lag: the fracture is where the plane is open and
+        # holds fluid (a dry, open rim ahead of the fluid is left out).
+        wet = mech.contact_pressure[:mesh.n_contacts] > 0.0
         open_ = on_plane & (opening > OPENING_THRESHOLD * w_well)
-        radius = math.sqrt(float(mesh.contact_area[open_].sum()) / math.pi)
+        radius = math.sqrt(float(mesh.contact_area[open_ & wet].sum()) / math.pi)
+        dry_rim = math.sqrt(float(mesh.contact_area[open_].sum()) / math.pi) - radius
         half = on_plane & (np.abs(r - 0.5 * radius) < 0.5 * config.zone_size)
         pressure = float(np.mean(mech.contact_pressure[:mesh.n_contacts][half])) - s0
         run.states.append(PennyMeasure(
-            time=mech.time - start, radius=radius, opening_well=w_well,
+            time=mech.time - start, radius=radius, dry_rim=dry_rim, opening_well=w_well,
             pressure_half_radius=pressure,
             max_off_plane_opening=float(np.max(np.abs(opening[~on_plane]))),
             injected=float(hm.state.injected),

@@ -1,0 +1,52 @@
+"""``grainfrac verify penny``: the penny-shaped hydraulic fracture in 3D (slow: about a
+minute at 4 mm zones; the verification case itself runs at 2 mm).
+
+What holds at 4 mm zones (measured on seed 0): the opening at the injection point
+within 4 % of the M-vertex at 1, 2 and 4 ms, the net pressure at half the radius within
+5 % at 2 ms, the fluid volume balance to round-off, and no open dry rim ahead of the
+fluid. What does not: the radius is 22-23 % larger than the M-vertex's, and the fluid's
+books show the coupling making energy (see the case's rows and docs/how-to/3d.md).
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from grainfrac.units import MM
+from grainfrac.verification import CASES
+from grainfrac.verification.penny import OPENING_TOLERANCE, PennyConfig, penny_run
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture(scope="module")
+def coarse():
+    return penny_run(PennyConfig(zone_size=4 * MM))
+
+
+def test_case_is_registered():
+    assert "penny" in CASES
+
+
+def test_opening_at_the_well_follows_the_m_vertex(coarse):
+    ref = coarse.reference
+    for s in coarse.states:
+        expected = float(ref.opening_at_well(s.time))
+        assert s.opening_well == pytest.approx(expected, rel=OPENING_TOLERANCE)
+
+
+def test_net_pressure_at_half_radius_at_2ms(coarse):
+    s = next(s for s in coarse.states if abs(s.time - 2e-3) < 1e-6)
+    expected = float(coarse.reference.pressure_at_half_radius(s.time))
+    assert s.pressure_half_radius == pytest.approx(expected, rel=0.10)
+
+
+def test_fluid_volume_balance_closes(coarse):
+    for s in coarse.states:
+        assert s.stored_gain == pytest.approx(s.injected, rel=1e-9)
+
+
+def test_the_fracture_is_wet_to_its_tip_and_grows(coarse):
+    radii = [s.radius for s in coarse.states]
+    assert all(s.dry_rim < 0.05 * s.radius for s in coarse.states)
+    assert radii == sorted(radii) and radii[0] > coarse.config.starter_crack_diameter / 2
