@@ -115,7 +115,8 @@ def test_defaults_round_trip(tmp_path):
     recipe = scenario.recipe()
     data = resolved_dict(scenario, recipe)
     assert not _has_none(data)
-    assert data["stress"] == {"case": "case2", "sigma_x_MPa": 2.5, "sigma_y_MPa": 5.0}
+    assert data["stress"] == {"case": "case2", "sigma_x_MPa": 2.5, "sigma_y_MPa": 5.0,
+                              "sigma_z_MPa": 1.0}
     assert isinstance(data["rock"], dict) and data["rock"]["name"] == "strathbogie-granite"
     again = validate(Scenario, tomllib.loads(tomli_w.dumps(data)))
     assert again == scenario.resolved(recipe)
@@ -295,7 +296,7 @@ BAD = {
         "fissures.clear_radius_mm", [],
     ),
     "unknown top-level key": ({"stages": [EQ], "injection": {}}, "injection",
-                              ["unknown key 'injection'", "allowed: fissures"]),
+                              ["unknown key 'injection'", "allowed: dimension, fissures"]),
     "unknown rock preset": ({"rock": "basalt", "stages": [EQ]}, "rock", ["basalt"]),
 }
 
