@@ -223,9 +223,12 @@ def build_report(run_dirs: list[str | Path], out: str | Path) -> Path:
         parts.append(_table(runs))
         parts.append(_img(overlay_figure(runs), "well pressure during injection, all runs"))
         parts.append(_img(energy_figure(runs), "strain energy released and frictional work"))
+        # 2D runs draw fractures.png, 3D runs fractures3d.png.
+        patterns = [(r, r.figures.get("fractures", r.figures.get("fractures3d")))
+                    for r in runs]
         parts.append("<div>" + "".join(
-            _img(r.figures["fractures"], f"{r.name}: fracture pattern")
-            for r in runs if "fractures" in r.figures) + "</div>")
+            _img(data, f"{r.name}: fracture pattern")
+            for r, data in patterns if data is not None) + "</div>")
     for r in runs:
         parts.append(f"<h2>{html.escape(r.name)}</h2><p>run directory: "
                      f"<code>{html.escape(str(r.path))}</code></p>")
