@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 import pytest
+from kill_resume import comparable, killed_then_resumed
 from scipy.integrate import quad
 
 from grainfrac.assembly import build_specimen
@@ -125,10 +126,6 @@ SCENARIO = {
 }
 
 
-def _comparable(summary: dict) -> dict:
-    return {k: v for k, v in summary.items() if k != "wall_time_s"}
-
-
 @pytest.fixture(scope="module")
 def reference(tmp_path_factory):
     out = tmp_path_factory.mktemp("tiny3d") / "run"
@@ -161,23 +158,8 @@ def test_3d_resume_after_kill_mid_injection_gives_the_same_result(reference, tmp
     """Killed during injection past a checkpoint: the resumed run ends as the
     uninterrupted one, to the last digit (so the same seed gives the same result)."""
     out = tmp_path / "killed"
-    scenario = validate(Scenario, SCENARIO)
-    calls = {"inject": 0}
-
-    class Killed(Exception):
-        pass
-
-    def kill_midway(p):
-        if p.stage_kind == "inject":
-            calls["inject"] += 1
-            if calls["inject"] == 40:
-                raise Killed
-
-    with pytest.raises(Killed):
-        run_scenario(scenario, scenario.recipe(), out, progress=kill_midway)
-    assert not (out / "summary.json").exists()
-    resumed = run_scenario(scenario, scenario.recipe(), out, resume=True)
-    assert _comparable(resumed) == _comparable(reference[1])
+    resumed = killed_then_resumed(validate(Scenario, SCENARIO), out, "inject", 40)
+    assert comparable(resumed) == comparable(reference[1])
     assert (out / "cracks.csv").read_text() == (reference[0] / "cracks.csv").read_text()
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from kill_resume import killed_then_resumed
 
 from grainfrac.io.config import validate
 from grainfrac.scenario import Scenario
@@ -83,21 +84,7 @@ def test_drill_out_relaxes_until_the_rock_settles(charged, tmp_path):
 
 
 def test_resume_during_charging_gives_the_same_result(charged, tmp_path):
-    sc = validate(Scenario, CHARGE)
-    calls = {"n": 0}
-
-    class Killed(Exception):
-        pass
-
-    def kill(p):
-        if p.stage_kind == "scda":
-            calls["n"] += 1
-            if calls["n"] == 40:
-                raise Killed
-
-    with pytest.raises(Killed):
-        run_scenario(sc, sc.recipe(), tmp_path, progress=kill)
-    resumed = run_scenario(sc, sc.recipe(), tmp_path, resume=True)
+    resumed = killed_then_resumed(validate(Scenario, CHARGE), tmp_path, "scda", 40)
     reference = charged[1]
     strip = ("wall_time_s",)
     assert {k: v for k, v in resumed.items() if k not in strip} == {

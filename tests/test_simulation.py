@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from kill_resume import killed_then_resumed
 from typer.testing import CliRunner
 
 from grainfrac.cli import app
@@ -91,22 +92,7 @@ def test_same_scenario_and_seed_give_identical_summary(reference, tmp_path):
 
 def test_resume_after_kill_mid_injection_gives_the_same_result(reference, tmp_path):
     out = tmp_path / "killed"
-    sc = _scenario()
-    seen = {"inject": 0}
-
-    class Killed(Exception):
-        pass
-
-    def kill_midway(p):
-        if p.stage_kind == "inject":
-            seen["inject"] += 1
-            if seen["inject"] == 12:
-                raise Killed
-
-    with pytest.raises(Killed):
-        run_scenario(sc, sc.recipe(), out, progress=kill_midway)
-    assert not (out / "summary.json").exists()
-    resumed = run_scenario(sc, sc.recipe(), out, resume=True)
+    resumed = killed_then_resumed(_scenario(), out, "inject", 12)
     assert _comparable(resumed) == _comparable(reference[1])
     ref_rows = (reference[0] / "cracks.csv").read_text()
     assert (out / "cracks.csv").read_text() == ref_rows
