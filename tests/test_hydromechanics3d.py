@@ -154,6 +154,7 @@ def test_3d_scenario_breaks_down_with_closed_books(reference):
     assert json.loads((out / "summary.json").read_text())["dimension"] == 3
 
 
+@pytest.mark.slow  # two more 3D runs; keeps the default suite near 10 min
 def test_3d_resume_after_kill_mid_injection_gives_the_same_result(reference, tmp_path):
     """Killed during injection past a checkpoint: the resumed run ends as the
     uninterrupted one, to the last digit (so the same seed gives the same result)."""
