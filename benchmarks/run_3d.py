@@ -14,6 +14,7 @@ Usage::
 from __future__ import annotations
 
 import argparse
+import csv
 import os
 import sys
 import tempfile
@@ -46,8 +47,8 @@ def main(argv: list[str] | None = None) -> int:
         summary = run_scenario(scenario, recipe, Path(tmp) / "run",
                                base_dir=args.scenario.parent)
         wall = time.perf_counter() - start
-        history = (Path(tmp) / "run" / "history.csv").read_text().splitlines()
-    last_step = int(history[-1].split(",")[9])
+        with open(Path(tmp) / "run" / "history.csv", newline="") as f:
+            last_step = int(list(csv.DictReader(f))[-1]["step"])
     tet_steps = last_step * summary["n_elements"]
     print(f"{args.scenario.name}, seed {scenario.seed}, {args.threads} thread(s): "
           f"{summary['n_elements']} tetrahedra, {summary['n_contacts']} sub-contacts")

@@ -70,7 +70,6 @@ def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
     contact = np.asarray(s.cracks.contact, dtype=np.int64)[rock]
     mode = np.asarray(s.cracks.mode, dtype=np.int64)[rock]
     energy = np.asarray(s.cracks.energy, dtype=float)[rock]
-    xy = a.mesh.contact_x[contact, :2].reshape(-1, 2)
     out: dict[str, Any] = {
         "grainfrac_version": grainfrac.__version__,
         "scenario": run.scenario.name,
@@ -119,6 +118,7 @@ def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
         out["tortuosity"] = out["tortuosity_top"]
         out.update(energy_split(mode, energy))
     else:
+        xy = a.mesh.contact_x[contact].reshape(-1, 2)
         out.update(fracture_summary(
             xy[:, 0], xy[:, 1], mode, energy, center=a.mesh.borehole_center,
             well_radius=a.mesh.borehole_radius, connect_distance=connect))

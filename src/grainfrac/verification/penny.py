@@ -177,8 +177,9 @@ def penny_run(config: PennyConfig | None = None, seed: int = 0) -> PennyRun:
                                  residual_aperture=config.initial_aperture,
                                  maximum_aperture=config.maximum_aperture)
     # Flow only in broken sub-contacts: every one is sealed until it breaks.
+    injection = penny_injection_node(mesh)
     network = flow.build_flow_network(
-        mesh, well=True, wall="flow_knots", well_nodes=[penny_injection_node(mesh)],
+        mesh, well=True, wall="flow_knots", well_nodes=[injection],
         sealed=np.ones(mesh.n_contacts, dtype=bool), well_compressibility=1 / config.bulk_modulus)
     hm = HydroMechanicalSolver(assembly, mech, network, fluid)
     hm.state = flow.initial_state(network, hm.aperture(), fluid)
@@ -186,7 +187,7 @@ def penny_run(config: PennyConfig | None = None, seed: int = 0) -> PennyRun:
                    float(mesh.contact_area[in_disc].sum()))
     opening0 = contact_opening(assembly, mech.u)
     held0 = hm.state.stored(~network.fixed)
-    well = mesh.contact_fluid_node == penny_injection_node(mesh)
+    well = mesh.contact_fluid_node == injection
     r = np.hypot(mesh.contact_x[:, 0], mesh.contact_x[:, 1])
     start = mech.time
     for t in sorted(config.times):
