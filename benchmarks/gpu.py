@@ -5,9 +5,9 @@ tetrahedra of 1 mm cubes, cut by 4 planes into 5 slab grains joined by bonded
 quartz-quartz sub-contacts, paper Table 2 properties) are held at one face and
 pulled and sheared at the other. For each size it prints the build time, the
 host-to-device copy, the first call (kernel compile, first size only), tet-steps
-per second of :meth:`CudaMechanics.cycle` (elements + contacts + node update +
-damping + energy books + crack list, host reading back only the books, the
-cracks and the platens at the end of the cycle), the time split by stage (each
+per second of :meth:`CudaMechanics.advance` (elements + contacts + node update +
+damping + energy books + crack list, all on the device; the host reads back an
+eight-byte control word at the end), the time split by stage (each
 stage timed alone, with a device synchronisation after it), and the
 device-to-host copy of the whole state. Then the same step on the CPU backend
 (``MechanicsSolver.cycle``, numba, one thread: the CPU kernels are serial) at a
@@ -111,17 +111,17 @@ def time_gpu(n: int, steps: int, first: bool) -> dict:
     cuda.synchronize()
     t_push = time.perf_counter() - t0
     t0 = time.perf_counter()
-    gpu.cycle(2)  # compiles on the first size
+    gpu.advance(2)  # compiles on the first size
     cuda.synchronize()
     t_first = time.perf_counter() - t0
     t0 = time.perf_counter()
-    gpu.cycle(steps)
+    gpu.advance(steps)
     cuda.synchronize()
     t_run = time.perf_counter() - t0
     # The split: the same stages, timed one by one.
     split: dict[str, float] = {}
     split_steps = max(steps // 4, 2)
-    gpu.cycle(split_steps, timings=split)
+    gpu.advance(split_steps, timings=split)
     t0 = time.perf_counter()
     gpu.pull()
     t_pull = time.perf_counter() - t0

@@ -72,6 +72,7 @@ def test_simulated_cuda_backend_matches_cpu():
     _check(report)
 
 
+@pytest.mark.gpu
 @pytest.mark.skipif(not cuda_available(), reason="no CUDA GPU")
 def test_gpu_backend_matches_cpu():
     report = _compare(simulator=False)

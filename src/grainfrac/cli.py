@@ -42,19 +42,35 @@ def _options(
         "--threads", help="CPU threads of the explicit step: a number or 'all' (default 1, "
         "or $GRAINFRAC_THREADS). Results are the same on any number; more threads help a "
         "large model on a machine of its own, not runs that share the cores.")] = None,
+    backend: Annotated[str | None, typer.Option(
+        "--backend", help="Where the explicit step runs: 'cpu' (numba) or 'cuda' (an NVIDIA "
+        "GPU; same results to round-off). Overrides a scenario's numerics.backend "
+        "(default: the scenario's, else cpu; or $GRAINFRAC_BACKEND).")] = None,
 ) -> None:
     """Grain-scale hydro-mechanical fracturing of crystalline rock."""
-    if threads is None:
-        return
+    if threads is None and backend is None:
+        return  # numba is not imported for commands that do not step
     import os
 
-    from grainfrac.physics.solver import THREADS_VARIABLE, default_threads
+    from grainfrac.physics.solver import (
+        BACKEND_VARIABLE,
+        THREADS_VARIABLE,
+        default_threads,
+        resolve_backend,
+    )
 
-    os.environ[THREADS_VARIABLE] = threads
-    try:
-        default_threads()  # checks the value before any compute
-    except ValueError as exc:
-        _fail(ValueError(f"--threads: {exc}".replace(f"{THREADS_VARIABLE} ", "")))
+    if threads is not None:
+        os.environ[THREADS_VARIABLE] = threads
+        try:
+            default_threads()  # checks the value before any compute
+        except ValueError as exc:
+            _fail(ValueError(f"--threads: {exc}".replace(f"{THREADS_VARIABLE} ", "")))
+    if backend is not None:
+        os.environ[BACKEND_VARIABLE] = backend
+        try:
+            resolve_backend()  # checks the value (and the GPU) before any compute
+        except GrainfracError as exc:
+            _fail(GrainfracError(f"--backend: {exc}"))
 
 
 @app.command()

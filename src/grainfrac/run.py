@@ -39,7 +39,7 @@ from grainfrac.physics.coupled import CoupledHistory
 from grainfrac.physics.fields import ring_mean_tangential_stress
 from grainfrac.physics.flow import FluidState
 from grainfrac.physics.model import build_mechanical_model
-from grainfrac.physics.solver import MechanicsSolver, NumericalBlowUp
+from grainfrac.physics.solver import MechanicsSolver, NumericalBlowUp, resolve_backend
 from grainfrac.scenario import Scenario, resolved_dict
 from grainfrac.stages import Driver, DriverState, Hooks, Stage, World, from_scenario
 from grainfrac.stages.inject import couple_fluid
@@ -349,10 +349,12 @@ class Run(Hooks):
         self.recipe = recipe
         self.out = Path(out)
         self.progress = progress
-        self.assembly: GrainAssembly = build_assembly(scenario.specimen_config(), recipe)
         numerics = scenario.numerics
+        self.backend = resolve_backend(numerics.backend)  # before any compute
+        self.assembly: GrainAssembly = build_assembly(scenario.specimen_config(), recipe)
         model = build_mechanical_model(self.assembly, mass_scaling=numerics.mass_scaling)
-        self.world = World(self.assembly, MechanicsSolver(model, damping=numerics.local_damping),
+        self.world = World(self.assembly, MechanicsSolver(model, damping=numerics.local_damping,
+                                                          backend=self.backend),
                            mass_scaling=numerics.mass_scaling)
         self.stages: list[Stage] = from_scenario(scenario, base_dir)
         self.driver = Driver(self.stages, self.world, self)
@@ -620,7 +622,8 @@ class Run(Hooks):
         w.injection_start_time = world["injection_start_time"]
         if world["model_kind"] == SCDA:
             self.stage("scda").build_plug(w)
-            w.solver = MechanicsSolver(w.scda_model, damping=self.scenario.numerics.local_damping)
+            w.solver = MechanicsSolver(w.scda_model, damping=self.scenario.numerics.local_damping,
+                                       backend=self.backend)
             w.model_kind = SCDA
         s = w.solver
         solver = records["solver"]

@@ -470,7 +470,7 @@ def insert_scda(rock_solver: MechanicsSolver, scda_model: MechanicalModel, fill:
     n_rock = rock_solver.model.n_nodes
     c_rock = rock_solver.model.n_contacts
     s = MechanicsSolver(scda_model, damping=rock_solver.damping,
-                        velocity_limit=rock_solver.velocity_limit)
+                        velocity_limit=rock_solver.velocity_limit, backend=rock_solver.backend)
     _copy_state(rock_solver, s, n_rock, c_rock)
     loads = rock_solver.loads
     s.loads.external[:n_rock] = loads.external
@@ -551,7 +551,7 @@ def drill_out(scda_solver: MechanicsSolver, rock_model: MechanicalModel) -> Mech
     n_rock = rock_model.n_nodes
     c_rock = rock_model.n_contacts
     s = MechanicsSolver(rock_model, damping=scda_solver.damping,
-                        velocity_limit=scda_solver.velocity_limit)
+                        velocity_limit=scda_solver.velocity_limit, backend=scda_solver.backend)
     _copy_state(scda_solver, s, n_rock, c_rock)
     s.energies["energy_removed"] += plug_stored_energy(scda_solver, n_rock, c_rock)
     ld = scda_solver.loads

@@ -39,6 +39,9 @@ STATE_ARRAYS = ("u", "v", "stress", "bonded", "status", "sigma_n", "tau", "damag
 
 # Environment variable naming the CPU threads of the explicit step (see default_threads).
 THREADS_VARIABLE = "GRAINFRAC_THREADS"
+# Environment variable naming the backend of the explicit step (see resolve_backend).
+BACKEND_VARIABLE = "GRAINFRAC_BACKEND"
+BACKENDS = ("cpu", "cuda")
 
 
 def default_threads() -> int:
@@ -62,6 +65,26 @@ def default_threads() -> int:
     if not 1 <= threads <= limit:
         raise ValueError(f"{THREADS_VARIABLE} must be in [1, {limit}] or 'all', got {threads}")
     return threads
+
+
+def resolve_backend(requested: str | None = None) -> str:
+    """The backend of the explicit step: ``$GRAINFRAC_BACKEND`` (set by ``grainfrac
+    --backend``) if set, else ``requested`` (a scenario's ``numerics.backend``), else
+    ``"cpu"``; checked before any compute.
+
+    ``"cuda"`` needs an NVIDIA GPU that numba-cuda can use (or numba's CUDA simulator,
+    ``NUMBA_ENABLE_CUDASIM=1``, which runs the same kernels slowly on the CPU).
+    """
+    value = os.environ.get(BACKEND_VARIABLE, "").strip().lower() or requested or "cpu"
+    if value not in BACKENDS:
+        raise GrainfracError(f"backend must be one of {', '.join(BACKENDS)}, got {value!r}")
+    if value == "cuda":
+        from grainfrac.physics.cuda import SIMULATOR, cuda_available
+
+        if not (SIMULATOR or cuda_available()):
+            raise GrainfracError("backend 'cuda' needs an NVIDIA GPU usable by numba-cuda, "
+                                 "and none was found; use backend 'cpu'")
+    return value
 
 
 class NumericalBlowUp(GrainfracError):
@@ -129,10 +152,14 @@ class MechanicsSolver:
     threads
         CPU threads of the explicit step (the motion is the same bit for bit on any
         number); default :func:`default_threads`.
+    backend
+        ``"cpu"`` (numba kernels, the reference) or ``"cuda"`` (the same laws on an
+        NVIDIA GPU, :mod:`grainfrac.physics.cuda`; same results to round-off).
     """
 
     def __init__(self, model: MechanicalModel, loads: Loads | None = None, damping: float = 0.8,
-                 velocity_limit: float = DEFAULT_VELOCITY_LIMIT, threads: int | None = None):
+                 velocity_limit: float = DEFAULT_VELOCITY_LIMIT, threads: int | None = None,
+                 backend: str = "cpu"):
         if not 0.0 <= damping < 1.0:
             raise ValueError(f"damping must be in [0, 1), got {damping}")
         # Local damping can raise the effective force to (1 + alpha) F, which
@@ -148,6 +175,13 @@ class MechanicsSolver:
         if not 1 <= self.threads <= numba.config.NUMBA_NUM_THREADS:
             raise ValueError(f"threads must be in [1, {numba.config.NUMBA_NUM_THREADS}] (the "
                              f"cores numba may use), got {self.threads}")
+        if backend not in BACKENDS:
+            raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
+        self.backend = backend
+        # The GPU copy of the state (backend "cuda"), made at the first cycle, and the
+        # host edits it has seen: restore_state and load_state_arrays count one.
+        self._device = None
+        self._state_edits = 0
         self.model = model
         self.loads = (loads if loads is not None
                       else Loads.free(model.n_nodes, model.dimension))
@@ -208,6 +242,9 @@ class MechanicsSolver:
 
     def cycle(self, n_steps: int) -> None:
         """Advance ``n_steps`` steps; record new cracks; check for blow-up."""
+        if self.backend == "cuda":
+            self._cycle_on_device(n_steps)
+            return
         m, ld = self.model, self.loads
         platens = self._platen_set()
         if self.threads > 1:
@@ -220,14 +257,47 @@ class MechanicsSolver:
             platens,
             self.pore_springs.record(), self.energies, self._crack_log,
         )
-        ppos, preac = platens.position, platens.reaction
-        for platen, pos, reac in zip(ld.platens, ppos, preac, strict=True):
+        self._book_cycle(self._crack_log.contact[:n_new], self._crack_log.step[:n_new],
+                         platens.position, platens.reaction, done, n_steps)
+
+    def _cycle_on_device(self, n_steps: int) -> None:
+        """:meth:`cycle` on the GPU: the host arrays stay the state's master copy. The
+        device gets what the host may have changed (loads, pressures, expansion rates,
+        energy books every cycle; the whole state after a host edit) and gives back
+        what the step changed."""
+        from grainfrac.physics.cuda import CudaMechanics
+
+        if self._device is None:
+            self._device = CudaMechanics(self)
+            self._device.state_edits = self._state_edits
+        elif self._device.state_edits != self._state_edits:
+            self._device.push()
+            self._device.state_edits = self._state_edits
+        else:
+            self._device.push_inputs()
+        record = self._device.cycle(n_steps)
+        self._book_cycle(*record, n_steps)
+
+    def note_state_edit(self) -> None:
+        """Say that the host changed the state arrays between cycles (beyond the loads
+        and the contacts' fluid pressures): the GPU backend copies the whole state to
+        the device before the next cycle. :meth:`restore_state` and
+        :meth:`load_state_arrays` say it themselves."""
+        self._state_edits += 1
+
+    def _book_cycle(self, crack_contact: np.ndarray, crack_step: np.ndarray,
+                    platen_position: np.ndarray, platen_reaction: np.ndarray, done: int,
+                    n_steps: int) -> None:
+        """After a cycle of ``done`` of ``n_steps`` steps: platens, new cracks (contact
+        and step within the cycle), time; a cycle cut short ran away."""
+        m, ld = self.model, self.loads
+        for platen, pos, reac in zip(ld.platens, platen_position, platen_reaction, strict=True):
             platen.position = float(pos)
             platen.reaction = float(-reac)
-        for i in range(n_new):
-            c = int(self._crack_log.contact[i])
+        for c, k in zip(crack_contact, crack_step, strict=True):
+            c = int(c)
             self.cracks.contact.append(c)
-            self.cracks.time.append(self.time + (int(self._crack_log.step[i]) + 1) * m.dt)
+            self.cracks.time.append(self.time + (int(k) + 1) * m.dt)
             self.cracks.mode.append(int(self.status[c]))
             self.cracks.energy.append(float(self.released[c]))
         self.time += done * m.dt
@@ -255,6 +325,7 @@ class MechanicsSolver:
         Raises ``KeyError`` naming the first missing array and ``ValueError`` on a
         shape mismatch, so a checkpoint of another model fails clearly.
         """
+        self.note_state_edit()
         for name, target in self.state_arrays().items():
             value = np.asarray(arrays[name])
             if value.shape != target.shape:
@@ -276,6 +347,7 @@ class MechanicsSolver:
 
     def restore_state(self, saved: dict) -> None:
         """Go back to a state taken by :meth:`save_state` (cracks formed since are dropped)."""
+        self.note_state_edit()
         for name, value in saved["arrays"].items():
             getattr(self, name)[...] = value
         self.loads.external[...] = saved["external"]

@@ -4,6 +4,8 @@ mechanics.
 
 from __future__ import annotations
 
+from typing import Literal
+
 from pydantic import Field
 
 from grainfrac.io.config import StrictModel
@@ -18,10 +20,15 @@ class NumericsSpec(StrictModel):
 
     ``local_damping`` is the Itasca local (non-viscous) damping coefficient of every
     stage; ``mass_scaling`` the fraction of the mass that mass scaling adds to keep
-    the step at the grains' own (1: all of it, 0: real masses, a smaller step).
+    the step at the grains' own (1: all of it, 0: real masses, a smaller step);
+    ``backend`` where the explicit step runs: ``"cpu"`` (numba, the reference) or
+    ``"cuda"`` (an NVIDIA GPU; the same results to round-off). ``grainfrac --backend``
+    (or ``$GRAINFRAC_BACKEND``) overrides it.
     """
 
     local_damping: float = Field(0.8, ge=0, lt=1, description="local damping coefficient")
     mass_scaling: float = Field(
         1.0, ge=0, le=1, description="fraction of the mass scaling's added mass kept "
         "(1: as designed, 0: real masses)")
+    backend: Literal["cpu", "cuda"] = Field(
+        "cpu", description="where the explicit step runs: cpu (numba) or cuda (NVIDIA GPU)")

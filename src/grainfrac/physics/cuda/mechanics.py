@@ -3,24 +3,45 @@
 The solver keeps owning the state, loads and crack record; this wrapper copies the
 model and state to the device once (:meth:`CudaMechanics.push`), advances them
 there with :func:`~grainfrac.physics.cuda.stepper.run_steps_cuda`, and after each
-:meth:`~CudaMechanics.cycle` brings back only what is small: the energy books,
-the new cracks, the platens' positions and reactions. The full state comes back
-on demand (:meth:`~CudaMechanics.pull`), e.g. before a checkpoint, a snapshot or
-an energy balance.
+:meth:`~CudaMechanics.cycle` brings back what the steps changed (nodes, element
+stresses, contact states, energy books, new cracks, platens), so that the host's
+coupling, histories and checkpoints read the solver's arrays as on the CPU. Before a
+cycle the solver sends what the host changes (:meth:`~CudaMechanics.push_inputs`),
+and the whole state again only after a host edit of it (a rejected fluid step's
+restore, a checkpoint's load: :meth:`MechanicsSolver.note_state_edit`).
 """
 
 from __future__ import annotations
+
+import time
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from grainfrac.physics.cuda import stepper
 from grainfrac.physics.records import CrackLog, NodeLoads, StepControl
-from grainfrac.physics.solver import MechanicsSolver, NumericalBlowUp
+
+if TYPE_CHECKING:
+    from grainfrac.physics.solver import MechanicsSolver
+
+
+# What a step changes, per record: the arrays copied back after each cycle. The
+# rest of the state is input that only the host changes: the contacts' fluid
+# pressures and opening offsets and the elements' expansion rates go to the device
+# every cycle (a coupling sets the pressures, SCDA charging the rates), the initial
+# strains (six values per element, set when a plug goes in) with the whole state
+# after a host edit.
+CHANGED_NODE_ARRAYS = ("u", "v", "force")
+CHANGED_ELEMENT_ARRAYS = ("stress", "eigenstrain")
+CHANGED_CONTACT_ARRAYS = ("bonded", "status", "sigma_n", "tau", "damage", "plastic_opening",
+                          "released")
+INPUT_ELEMENT_ARRAYS = ("eigenstrain_rate",)
+INPUT_CONTACT_ARRAYS = ("pressure", "opening_offset")
 
 
 class CudaMechanics:
     """Advance a :class:`MechanicsSolver`'s state on the GPU with the same semantics
-    as :meth:`MechanicsSolver.cycle`.
+    as :meth:`MechanicsSolver.cycle` (which calls it for ``backend="cuda"``).
 
     Parameters
     ----------
@@ -33,6 +54,8 @@ class CudaMechanics:
     def __init__(self, solver: MechanicsSolver, *, tpb: int = stepper.DEFAULT_TPB):
         self.solver = solver
         self.tpb = tpb
+        # The solver's count of host edits of the state that the device holds.
+        self.state_edits = 0
         m = solver.model
         self._elements = stepper.to_device(m.elements)
         self._contacts = stepper.to_device(m.contacts)
@@ -42,64 +65,72 @@ class CudaMechanics:
         self.push()
 
     def push(self) -> None:
-        """Copy the solver's state and loads to the device (after host-side edits)."""
+        """Copy the solver's whole state and its loads to the device."""
         s, m = self.solver, self.solver.model
+        ld = s.loads
         self._nodes = stepper.to_device(s.node_state())
         self._element_state = stepper.to_device(s.element_state())
         self._contact_state = stepper.to_device(s.contact_state())
-        ld = s.loads
         self._loads = stepper.to_device(NodeLoads(m.mass, ld.external, ld.fixed,
                                                   ld.prescribed_velocity))
         self._platens = stepper.to_device(s._platen_set())
         self._energies = stepper.device_energies(s.energies)
 
+    def push_inputs(self) -> None:
+        """Copy what the host changes between cycles: loads, platens, energy books and
+        the input arrays of the element and contact states."""
+        s, m = self.solver, self.solver.model
+        ld = s.loads
+        stepper.copy_fields(NodeLoads(m.mass, ld.external, ld.fixed, ld.prescribed_velocity),
+                            self._loads, ("external", "fixed", "prescribed_velocity"))
+        stepper.copy_fields(s.element_state(), self._element_state, INPUT_ELEMENT_ARRAYS)
+        stepper.copy_fields(s.contact_state(), self._contact_state, INPUT_CONTACT_ARRAYS)
+        self._platens = stepper.to_device(s._platen_set())
+        self._energies = stepper.device_energies(s.energies)
+
     def pull(self) -> None:
-        """Copy the device state into the solver's arrays (on demand, not per cycle)."""
+        """Copy what a step changes from the device into the solver's arrays."""
         s = self.solver
-        stepper.copy_to_host(self._nodes, s.node_state())
-        stepper.copy_to_host(self._element_state, s.element_state())
-        stepper.copy_to_host(self._contact_state, s.contact_state())
+        stepper.copy_fields(self._nodes, s.node_state(), CHANGED_NODE_ARRAYS)
+        stepper.copy_fields(self._element_state, s.element_state(), CHANGED_ELEMENT_ARRAYS)
+        stepper.copy_fields(self._contact_state, s.contact_state(), CHANGED_CONTACT_ARRAYS)
+        stepper.add_energies(s.energies, self._energies)
 
     def _pores_device(self):
         """The solver's pore springs on the device (set per cycle by a coupling)."""
         return stepper.to_device(self.solver.pore_springs.record())
 
-    def cycle(self, n_steps: int, *, timings: dict[str, float] | None = None) -> None:
-        """Advance ``n_steps`` on the device; record new cracks; check for blow-up.
+    def advance(self, n_steps: int, *, timings: dict[str, float] | None = None
+                ) -> tuple[int, int]:
+        """Advance ``n_steps`` on the device only; return (new cracks, steps done).
 
         ``timings``, if given, gets the wall time of each stage (see
         :func:`~grainfrac.physics.cuda.stepper.run_steps_cuda`; slower).
         """
         s, m = self.solver, self.solver.model
-        n_new, done = stepper.run_steps_cuda(
+        return stepper.run_steps_cuda(
             StepControl(int(n_steps), m.dt, s.damping, bool(s.allow_failure),
                         float(s.velocity_limit), False),
             self._nodes, self._loads, self._elements, self._element_state, self._contacts,
             self._contact_state, self._platens, self._pores_device(), self._energies,
             self._cracks, tpb=self.tpb, sync_every=max(int(n_steps), 1), timings=timings,
         )
-        stepper.add_energies(s.energies, self._energies)
+
+    def cycle(self, n_steps: int, *, timings: dict[str, float] | None = None
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
+        """:meth:`advance`, then bring the changed state back into the solver.
+
+        Returns what :meth:`MechanicsSolver._book_cycle` records: the new cracks'
+        contacts and steps (in the CPU backend's order), the platens' positions and
+        reactions, and the steps done. ``timings`` as for :meth:`advance`, with the
+        copy back under "to host".
+        """
+        n_new, done = self.advance(n_steps, timings=timings)
+        start = time.perf_counter()
+        self.pull()
+        contact, step = stepper.fetch_cracks(self._cracks, n_new)
         positions = self._platens.position.copy_to_host()
         reactions = self._platens.reaction.copy_to_host()
-        for platen, pos, reac in zip(s.loads.platens, positions, reactions, strict=True):
-            platen.position = float(pos)
-            platen.reaction = float(-reac)
-        contact, step = stepper.fetch_cracks(self._cracks, n_new)
-        if n_new:
-            status = self._contact_state.status.copy_to_host()
-            released = self._contact_state.released.copy_to_host()
-            for c, k in zip(contact, step, strict=True):
-                s.cracks.contact.append(int(c))
-                s.cracks.time.append(s.time + (int(k) + 1) * m.dt)
-                s.cracks.mode.append(int(status[c]))
-                s.cracks.energy.append(float(released[c]))
-        s.time += done * m.dt
-        s.step_count += done
-        if done < n_steps:
-            self.pull()
-            v = s.v
-            vmax = float(np.nanmax(np.abs(v))) if np.isfinite(v).any() else np.inf
-            raise NumericalBlowUp(
-                f"velocities ran away at step {s.step_count} (t = {s.time:.6g} s): "
-                f"max |v| = {vmax:.3g} m/s > {s.velocity_limit:g} m/s"
-            )
+        if timings is not None:
+            timings["to host"] = timings.get("to host", 0.0) + time.perf_counter() - start
+        return contact, step, positions, reactions, done

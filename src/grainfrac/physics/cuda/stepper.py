@@ -48,6 +48,19 @@ def copy_to_host(device_record, host_record) -> None:
             host[...] = dev.copy_to_host()
 
 
+def copy_fields(source, target, names: tuple[str, ...]) -> None:
+    """Copy the named arrays of one record into another of the same type, in place:
+    host to device or device to host (whichever ``target`` holds)."""
+    for name in names:
+        src, dst = getattr(source, name), getattr(target, name)
+        if hasattr(dst, "copy_to_device"):
+            dst.copy_to_device(np.ascontiguousarray(src))
+        elif dst.flags.c_contiguous:
+            src.copy_to_host(dst)
+        else:
+            dst[...] = src.copy_to_host()
+
+
 def device_energies(energies: np.ndarray):
     """The device copy of an energy record (ENERGY_DTYPE): a float64[8] in its order."""
     return cuda.to_device(np.ascontiguousarray(energies).view(np.float64).copy())

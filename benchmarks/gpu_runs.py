@@ -1,0 +1,269 @@
+"""Benchmark: whole 3D scenario runs on the CUDA backend, against the CPU backend.
+
+Two measurements, each a plain ``run_scenario`` into a run directory:
+
+``same-answers``
+    A small 3D hybrid slab (26 x 26 x 6 mm, SCDA to 3 MPa, drill-out, injection
+    past breakdown; about 17,000 explicit steps) on the CPU backend and on the
+    CUDA backend. Prints the crack catalogues compared as sets of (contact, mode),
+    whether the order is the same, and the largest relative difference of the
+    history's well pressures.
+
+``cube``
+    ``examples/3d/hybrid-case3-cube.toml`` (the paper's 100 mm cube, Case 3, SCDA
+    then 90 ml/min injection) on the CUDA backend, with the wall time split into
+    set-up (assembly and model), GPU mechanics (the explicit steps on the device),
+    host-device copies, the pressure solve (``flow.implicit_step``, CPU) and the
+    rest on the host (coupling, histories, snapshots, checkpoints, figures). Then the
+    CPU backend's time per explicit step of the same model, on all the machine's
+    cores, and the estimated CPU time of the whole run: its steps at that rate plus
+    the host parts measured on the GPU run (which the CPU run does too). With
+    ``--limit-s`` the run is stopped (SIGTERM: a checkpoint, as a user's Ctrl-C) and
+    the split covers the part it ran.
+
+Usage (from the repository root, on a machine with an NVIDIA GPU)::
+
+    PYTHONPATH=src python3 benchmarks/gpu_runs.py same-answers cube --out /tmp/gpu-runs
+    PYTHONPATH=src python3 benchmarks/gpu_runs.py cube --backend cpu --limit-s 60  # no GPU
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import datetime
+import json
+import os
+import signal
+import sys
+import threading
+import time
+import tomllib
+from collections import defaultdict
+from contextlib import contextmanager
+from pathlib import Path
+
+import numba
+import numpy as np
+
+import grainfrac.run as run_module
+from grainfrac.io.config import validate
+from grainfrac.physics import flow
+from grainfrac.physics.model import build_mechanical_model
+from grainfrac.physics.solver import BACKEND_VARIABLE, MechanicsSolver
+from grainfrac.run import RunInterrupted
+from grainfrac.scenario import Scenario
+from grainfrac.simulation import run_scenario
+
+ROOT = Path(__file__).resolve().parents[1]
+CUBE = ROOT / "examples" / "3d" / "hybrid-case3-cube.toml"
+SMALL_HYBRID = {
+    "name": "same-answers-3d-hybrid", "seed": 1, "dimension": 3,
+    "specimen": {"shape": "slab", "width_mm": 26, "height_mm": 26, "thickness_mm": 6,
+                 "borehole_diameter_mm": 8},
+    "stress": {"case": "case2"},
+    "stages": [{"kind": "equilibrate"},
+               {"kind": "scda", "peak_pressure_MPa": 3.0, "max_duration_ms": 1.0,
+                "scda": "scda"},
+               {"kind": "drill_out", "relax_steps": 1000},
+               {"kind": "inject", "rate_ml_per_min": 180.0, "duration_ms": 1.0,
+                "stop_after_breakdown_ms": 0.3, "stop_at_boundary": False}],
+}
+
+
+def say(*parts) -> None:
+    print(*parts, flush=True)
+
+
+@contextmanager
+def backend(name: str):
+    os.environ[BACKEND_VARIABLE] = name
+    try:
+        yield
+    finally:
+        os.environ.pop(BACKEND_VARIABLE, None)
+
+
+class Clock:
+    """Wall time (s) spent in wrapped functions, by label."""
+
+    def __init__(self):
+        self.seconds: dict[str, float] = defaultdict(float)
+        self._undo: list = []
+
+    def wrap(self, owner, name: str, label: str) -> None:
+        original = getattr(owner, name)
+
+        def timed(*args, **kwargs):
+            start = time.perf_counter()
+            try:
+                return original(*args, **kwargs)
+            finally:
+                self.seconds[label] += time.perf_counter() - start
+
+        setattr(owner, name, timed)
+        self._undo.append((owner, name, original))
+
+    def restore(self) -> None:
+        for owner, name, original in reversed(self._undo):
+            setattr(owner, name, original)
+
+
+def history(out: Path) -> list[dict[str, str]]:
+    with open(out / "history.csv", newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def cracks(out: Path) -> list[tuple[int, str]]:
+    with open(out / "cracks.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    return [(int(r["contact"]), r["mode"]) for r in rows]
+
+
+def same_answers(out: Path) -> dict:
+    scenario = validate(Scenario, SMALL_HYBRID)
+    result = {}
+    for name in ("cpu", "cuda"):
+        start = time.perf_counter()
+        with backend(name):
+            summary = run_scenario(scenario, scenario.recipe(), out / name, overwrite=True)
+        result[name] = {"wall_s": time.perf_counter() - start, "summary": summary,
+                        "cracks": cracks(out / name), "history": history(out / name)}
+        say(f"same-answers: {name} run {result[name]['wall_s']:.1f} s, "
+            f"{summary['n_cracks']} cracks, breakdown {summary['breakdown_pressure_MPa']} MPa")
+    cpu, gpu = result["cpu"], result["cuda"]
+    p_cpu = np.array([float(r["well_pressure_MPa"]) for r in cpu["history"]])
+    p_gpu = np.array([float(r["well_pressure_MPa"]) for r in gpu["history"]])
+    n = min(len(p_cpu), len(p_gpu))
+    scale = max(float(np.max(np.abs(p_cpu))), 1e-300)
+    report = {
+        "steps": int(cpu["history"][-1]["step"]),
+        "cracks_cpu": len(cpu["cracks"]), "cracks_cuda": len(gpu["cracks"]),
+        "same_crack_set": sorted(cpu["cracks"]) == sorted(gpu["cracks"]),
+        "same_crack_order": cpu["cracks"] == gpu["cracks"],
+        "cracks_only_cpu": len(set(cpu["cracks"]) - set(gpu["cracks"])),
+        "cracks_only_cuda": len(set(gpu["cracks"]) - set(cpu["cracks"])),
+        "history_rows": [len(p_cpu), len(p_gpu)],
+        "well_pressure_max_rel": float(np.max(np.abs(p_cpu[:n] - p_gpu[:n])) / scale),
+        "breakdown_MPa": [cpu["summary"]["breakdown_pressure_MPa"],
+                          gpu["summary"]["breakdown_pressure_MPa"]],
+        "wall_s": [cpu["wall_s"], gpu["wall_s"]],
+    }
+    say("same-answers: " + json.dumps(report))
+    return report
+
+
+def cube(out: Path, name: str, limit_s: float | None, cpu_steps: int) -> dict:
+    scenario = validate(Scenario, tomllib.loads(CUBE.read_text()))
+    clock = Clock()
+    built = {}
+    build_assembly = run_module.build_assembly
+
+    def keep_assembly(*args, **kwargs):
+        built["assembly"] = build_assembly(*args, **kwargs)
+        return built["assembly"]
+
+    run_module.build_assembly = keep_assembly
+    clock.wrap(run_module, "build_assembly", "set-up")
+    clock.wrap(run_module, "build_mechanical_model", "set-up")
+    clock.wrap(flow, "implicit_step", "pressure solve")
+    if name == "cuda":
+        from grainfrac.physics.cuda.mechanics import CudaMechanics
+
+        clock.wrap(CudaMechanics, "advance", "GPU mechanics")
+        for method in ("push", "push_inputs", "pull"):
+            clock.wrap(CudaMechanics, method, "host-device copies")
+    else:
+        clock.wrap(MechanicsSolver, "cycle", "CPU mechanics")
+    timer = None
+    if limit_s:
+        timer = threading.Timer(limit_s, lambda: os.kill(os.getpid(), signal.SIGTERM))
+        timer.start()
+    start = time.perf_counter()
+    stopped = None
+    try:
+        with backend(name):
+            summary = run_scenario(scenario, scenario.recipe(), out / f"cube-{name}",
+                                   overwrite=True, log_every_s=30.0)
+    except RunInterrupted as exc:
+        summary, stopped = None, str(exc)
+    finally:
+        if timer is not None:
+            timer.cancel()
+        clock.restore()
+        run_module.build_assembly = build_assembly
+    total = time.perf_counter() - start
+    rows = history(out / f"cube-{name}")
+    steps = int(rows[-1]["step"]) if rows else 0
+    split = dict(clock.seconds)
+    # The timed calls do not nest; the rest is the host's work between them.
+    rest = total - sum(split.values())
+    split["host: coupling, histories, snapshots, checkpoints, figures"] = rest
+    assembly = built["assembly"]
+    report = {
+        "backend": name, "tets": int(assembly.mesh.n_elements),
+        "contacts": int(assembly.mesh.n_contacts), "steps": steps, "total_s": total,
+        "split_s": split, "stopped": stopped, "last_stage": rows[-1]["stage"] if rows else None,
+        "breakdown_MPa": summary["breakdown_pressure_MPa"] if summary else None,
+        "peak_expansive_MPa": summary["peak_expansive_pressure_MPa"] if summary else None,
+        "n_cracks": summary["n_cracks"] if summary else None,
+    }
+    mechanics = split.get("GPU mechanics", split.get("CPU mechanics", 0.0))
+    say(f"cube ({name}): {report['tets']:.3e} tets, {steps} steps in {total:.1f} s "
+        f"({'stopped: ' + stopped if stopped else 'finished'}); last stage "
+        f"{report['last_stage']}")
+    for label, seconds in sorted(split.items(), key=lambda kv: -kv[1]):
+        say(f"    {label:<58s} {seconds:8.1f} s  {100 * seconds / total:5.1f} %")
+    if steps:
+        say(f"    mechanics per step {1e3 * mechanics / steps:.3f} ms, "
+            f"{report['tets'] * steps / max(mechanics, 1e-9):.3e} tet-steps/s")
+    solve = split.get("pressure solve", 0.0)
+    say(f"    pressure solve / time after set-up: "
+        f"{solve / max(total - split.get('set-up', 0.0), 1e-9):.3f}")
+    if cpu_steps and steps:
+        model = build_mechanical_model(assembly, mass_scaling=scenario.numerics.mass_scaling)
+        solver = MechanicsSolver(model, threads=numba.config.NUMBA_NUM_THREADS)
+        solver.cycle(2)
+        t0 = time.perf_counter()
+        solver.cycle(cpu_steps)
+        per_step = (time.perf_counter() - t0) / cpu_steps
+        host = total - mechanics - split.get("host-device copies", 0.0)
+        estimate = steps * per_step + host
+        report.update(cpu_s_per_step=per_step, cpu_threads=solver.threads,
+                      cpu_estimate_s=estimate, ratio=estimate / total)
+        say(f"    CPU backend ({solver.threads} threads): {1e3 * per_step:.2f} ms/step "
+            f"({cpu_steps} steps timed) -> this run on the CPU ~{estimate:.0f} s "
+            f"({steps} steps x {per_step:.4f} s + {host:.0f} s on the host as measured "
+            f"here); CPU/GPU {estimate / total:.1f} x")
+    say("cube: " + json.dumps(report))
+    return report
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("what", nargs="+", choices=["same-answers", "cube"])
+    parser.add_argument("--out", type=Path, default=Path("gpu-runs"))
+    parser.add_argument("--backend", default="cuda", choices=["cpu", "cuda"],
+                        help="backend of the cube run (default cuda)")
+    parser.add_argument("--limit-s", type=float, help="stop the cube run after this long")
+    parser.add_argument("--cpu-steps", type=int, default=20,
+                        help="explicit steps of the cube model timed on the CPU (0: none)")
+    args = parser.parse_args()
+    say(f"# grainfrac whole-run GPU benchmark, "
+        f"{datetime.datetime.now().isoformat(timespec='seconds')}, "
+        f"{os.cpu_count()} CPU cores, numba threads {numba.config.NUMBA_NUM_THREADS}")
+    if args.backend == "cuda" or "same-answers" in args.what:
+        from grainfrac.physics.cuda import device_name
+
+        say(f"device: {device_name()}")
+    args.out.mkdir(parents=True, exist_ok=True)
+    results = {}
+    if "same-answers" in args.what:
+        results["same_answers"] = same_answers(args.out)
+    if "cube" in args.what:
+        results["cube"] = cube(args.out, args.backend, args.limit_s, args.cpu_steps)
+    (args.out / "gpu_runs.json").write_text(json.dumps(results, indent=1, default=str))
+
+
+if __name__ == "__main__":
+    sys.exit(main())
