@@ -44,6 +44,11 @@ CRACK_LOCAL_ZONES = 1.0
 # pore's fluid (lab HS, 5 ml/min, seed 0: 1 / 3 / 10 / 30 give books -4.5 / -5.8 /
 # -8.6 / -31.8 %, breakdown 6.455 MPa in all).
 DRAINED_PORE_SOFTENING = 10.0
+# Cracks of more fluid nodes than this keep their shared opening mode as a factor
+# (flow.SharedCompliance) rather than as a dense block in the pressure matrix: a
+# direct factorisation fills such a block at ~N^3 / 3 operations (3 ms at 200 nodes,
+# seconds at a few thousand: the 100 mm cube after SCDA charging).
+LOW_RANK_MIN_NODES = 200
 # Step control (see HydroMechanicalSolver.advance).
 MAX_HALVINGS = 5
 PRESSURE_JUMP_FRACTION = 0.10
@@ -70,7 +75,7 @@ class _Pores(NamedTuple):
     aperture: np.ndarray
     compliance: np.ndarray  # HydroMechanicalSolver.pore_compliance
     local_compliance: np.ndarray  # HydroMechanicalSolver.crack_compliance
-    shared_compliance: sp.csr_matrix | None
+    shared_compliance: flow.SharedCompliance | None
     well_void: float | None
 
 
@@ -241,7 +246,7 @@ class HydroMechanicalSolver:
             closed sub-contact is a spring, A / kn; an open one opens at least as
             a crack ``CRACK_LOCAL_ZONES`` zones long, ``CRACK_COMPLIANCE_FACTOR``
             A (zone length) / E'. The borehole adds its Lame compliance.
-        shared : scipy.sparse.csr_matrix or None
+        shared : flow.SharedCompliance or None
             The uniform opening mode of each open crack k, kappa_k a a^T with
             a_i the open area of crack k at node i, A_k = sum a_i and
             kappa_k = ``CRACK_COMPLIANCE_FACTOR`` L_k / (E' A_k): a uniform rise dp
@@ -281,14 +286,21 @@ class HydroMechanicalSolver:
         crack_length = np.zeros(len(size))
         crack_length[group[inv]] = length[idx]
         kappa = CRACK_COMPLIANCE_FACTOR * crack_length / (self.crack_modulus * crack_area)
-        # Every pair (i, j) of entries in the same crack.
+        # Small cracks as explicit blocks: every pair (i, j) of entries in the same crack.
+        large = size > LOW_RANK_MIN_NODES
+        small_entry = ~large[group]
+        pairs = np.where(large, 0, size)[group]
         first = np.cumsum(size) - size
-        pairs = size[group]
         row = np.repeat(np.arange(len(keys)), pairs)
         col = first[group[row]] + np.arange(len(row)) - np.repeat(np.cumsum(pairs) - pairs, pairs)
-        shared = sp.coo_matrix((kappa[group[row]] * node_area[row] * node_area[col],
-                                (node[row], node[col])), shape=(n, n)).tocsr()
-        return local, shared
+        near = sp.coo_matrix((kappa[group[row]] * node_area[row] * node_area[col],
+                              (node[row], node[col])), shape=(n, n)).tocsr()
+        # Large cracks as factors: their open area per node, one column each.
+        column = np.cumsum(large) - 1
+        entry = ~small_entry
+        modes = sp.csc_matrix((node_area[entry], (node[entry], column[group[entry]])),
+                              shape=(n, int(large.sum())))
+        return local, flow.SharedCompliance(near, modes, kappa[large])
 
     def _per_unknown(self, contact_compliance: np.ndarray) -> np.ndarray:
         """Sum sub-contact compliances onto the fluid unknowns; the well adds its wall's."""

@@ -39,7 +39,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.linalg import spsolve
+from scipy.sparse.linalg import splu, spsolve
 
 from grainfrac.geometry.meshing import GrainMesh
 
@@ -436,6 +436,9 @@ class FluidState:
     # and carried out through the fixed-pressure nodes (their pressure x outflow).
     viscous_work: float = 0.0
     outflow_work: float = 0.0
+    # Unknowns the last solve held dry (unsaturated, p = 0): the next solve's active
+    # set starts from them (None: from none).
+    dry: np.ndarray | None = None
 
     def stored(self, free: np.ndarray) -> float:
         """Fluid held by the free unknowns (m3 at reference density)."""
@@ -471,18 +474,44 @@ def _laplacian(network: FlowNetwork, ends: np.ndarray, cond: np.ndarray) -> sp.c
     ).tocsr()
 
 
+@dataclass(frozen=True)
+class SharedCompliance:
+    """The opening (m3/Pa) of pore i under a pressure change at pore j through the crack
+    modes they share: ``B = near + modes diag(kappa) modes^T``, symmetric.
+
+    ``near`` (sparse n x n) holds the rank-one blocks of small cracks explicitly;
+    ``modes`` (sparse n x K, the open area of each large crack at each node) and
+    ``kappa`` (K) keep the large ones as factors, because a crack of N nodes is a dense
+    N x N block that a sparse direct factorisation fills at ~N^3 / 3 operations:
+    after SCDA charging in the 100 mm cube, one crack of a few thousand nodes made each
+    pressure solve take ~60 s. :func:`implicit_step` solves with them by the
+    Sherman-Morrison-Woodbury identity (one factorisation of the sparse part, K
+    solves, a K x K system).
+    """
+
+    near: sp.csr_matrix
+    modes: sp.csc_matrix
+    kappa: np.ndarray
+
+    def __matmul__(self, p: np.ndarray) -> np.ndarray:
+        return self.near @ p + self.modes @ (self.kappa * (self.modes.T @ p))
+
+    def diagonal(self) -> np.ndarray:
+        return self.near.diagonal() + self.modes.multiply(self.modes) @ self.kappa
+
+
 def implicit_step(network: FlowNetwork, state: FluidState, aperture: np.ndarray, dt: float,
                   fluid: FluidProperties, injection_rate: float = 0.0,
                   compliance: np.ndarray | None = None,
                   well_volume: float | None = None,
-                  shared_compliance: sp.spmatrix | None = None) -> None:
+                  shared_compliance: SharedCompliance | sp.spmatrix | None = None) -> None:
     """Advance pressures by ``dt``: backward Euler on fluid content; update the balance.
 
     Solves, for the free unknowns,
     ``(V c + beta + B) p+ - dt sum_j C (p_j+ - p_i+) = content - V + (beta + B) p + dt Q``
     where ``beta`` (m3/Pa, ``compliance``) is the opening compliance of each pore
     at fixed total stress under a pressure change of its own, and ``B``
-    (``shared_compliance``, sparse, symmetric) the opening of pore i under a
+    (``shared_compliance``, :class:`SharedCompliance` or sparse) the opening of pore i under a
     pressure change at pore j through a mode they share (fixed-stress split:
     they stand in for the mechanical response to the pressure change that the
     staggered mechanics delivers next; with both zero this is the plain
@@ -497,11 +526,18 @@ def implicit_step(network: FlowNetwork, state: FluidState, aperture: np.ndarray,
     storage = v_new * c + beta
     rhs = state.content - v_new + beta * state.pressure + dt * source
     matrix = (sp.diags(storage) + dt * lap).tocsr()
+    low_rank = None
     if shared_compliance is not None:
-        matrix = (matrix + shared_compliance).tocsr()
         rhs = rhs + shared_compliance @ state.pressure
+        if sp.issparse(shared_compliance):
+            matrix = (matrix + shared_compliance).tocsr()
+        else:
+            matrix = (matrix + shared_compliance.near).tocsr()
+            if shared_compliance.modes.shape[1]:
+                low_rank = shared_compliance
     free = ~network.fixed
-    p_new = _solve_without_suction(matrix, rhs, network.fixed, network.fixed_pressure)
+    p_new, state.dry = _solve_without_suction(matrix, rhs, network.fixed,
+                                              network.fixed_pressure, low_rank, state.dry)
     flow_out = lap @ p_new
     net_in = source - flow_out
     state.content[free] += dt * net_in[free]
@@ -549,9 +585,19 @@ def undrained_pressure(network: FlowNetwork, state: FluidState, aperture: np.nda
 
 
 def _solve_without_suction(matrix: sp.csr_matrix, rhs: np.ndarray, fixed: np.ndarray,
-                           fixed_pressure: np.ndarray, max_rounds: int = 50) -> np.ndarray:
-    """Solve ``matrix p = rhs`` with ``p >= 0`` on the free unknowns (primal-dual
-    active set for this complementarity problem).
+                           fixed_pressure: np.ndarray, low_rank: SharedCompliance | None = None,
+                           dry: np.ndarray | None = None, max_rounds: int = 50
+                           ) -> tuple[np.ndarray, np.ndarray]:
+    """Solve ``(matrix + low_rank) p = rhs`` with ``p >= 0`` on the free unknowns
+    (primal-dual active set for this complementarity problem; ``low_rank``, if given,
+    adds its large cracks' modes, :class:`SharedCompliance`). Returns the pressures
+    and the unknowns held dry.
+
+    The active set starts from ``dry`` (the last step's): most of it holds from one
+    step to the next, and every round is a factorisation. Measured on the 50 x 50 x
+    10 mm 3D hybrid slab (seed 0, 750 fluid steps): 4.6 rounds a step from an empty
+    set, 2.0 from the last step's (the solves' time 11.4 -> 3.2 s; breakdown 7.1561
+    -> 7.1558 MPa, where a node within the release tolerance ends otherwise).
 
     Fluid cannot pull (no suction): a node whose pressure would be negative (a pore
     opening faster than fluid can reach it) is unsaturated and held at p = 0, so
@@ -565,22 +611,50 @@ def _solve_without_suction(matrix: sp.csr_matrix, rhs: np.ndarray, fixed: np.nda
     plus a graph Laplacian) is an M-matrix, for which these rounds settle.
     """
     p = np.where(fixed, fixed_pressure, 0.0)
-    dry = np.zeros_like(fixed)
+    dry = np.zeros_like(fixed) if dry is None else dry & ~fixed
     diagonal = matrix.diagonal()
+    if low_rank is not None:
+        diagonal = diagonal + low_rank.modes.multiply(low_rank.modes) @ low_rank.kappa
     for _ in range(max_rounds):
         free = ~fixed & ~dry
         if free.any():
             held = ~free
             a_ff = matrix[free][:, free].tocsc()
-            p[free] = spsolve(a_ff, rhs[free] - matrix[free][:, held] @ p[held])
+            b_f = rhs[free] - matrix[free][:, held] @ p[held]
+            if low_rank is None:
+                p[free] = spsolve(a_ff, b_f)
+            else:
+                modes = low_rank.modes
+                b_f -= modes[free] @ (low_rank.kappa * (modes[held].T @ p[held]))
+                p[free] = _woodbury_solve(a_ff, b_f, modes[free], low_rank.kappa)
         negative = free & (p < 0.0)
         wet = np.zeros_like(dry)
-        wet[dry] = rhs[dry] - matrix[dry] @ p > diagonal[dry]
+        if dry.any():
+            pushed = matrix[dry] @ p
+            if low_rank is not None:
+                pushed += low_rank.modes[dry] @ (low_rank.kappa * (low_rank.modes.T @ p))
+            wet[dry] = rhs[dry] - pushed > diagonal[dry]
         if not negative.any() and not wet.any():
             break
         p[negative] = 0.0
         dry = (dry | negative) & ~wet
-    return np.maximum(p, np.where(fixed, -np.inf, 0.0))
+    return np.maximum(p, np.where(fixed, -np.inf, 0.0)), dry
+
+
+def _woodbury_solve(a: sp.csc_matrix, b: np.ndarray, modes: sp.spmatrix,
+                    kappa: np.ndarray) -> np.ndarray:
+    """``(a + modes diag(kappa) modes^T)^-1 b`` by the Sherman-Morrison-Woodbury identity:
+    ``y - Z (diag(1/kappa) + modes^T Z)^-1 modes^T y`` with ``y = a^-1 b`` and
+    ``Z = a^-1 modes``; one factorisation of the sparse ``a``."""
+    lu = splu(a)
+    y = lu.solve(b)
+    used = np.flatnonzero(modes.getnnz(axis=0))  # cracks with a node in this system
+    if len(used) == 0:
+        return y
+    u = modes[:, used].toarray()
+    z = lu.solve(u)
+    capacitance = np.diag(1.0 / kappa[used]) + u.T @ z
+    return y - z @ np.linalg.solve(capacitance, u.T @ y)
 
 
 def explicit_step(network: FlowNetwork, state: FluidState, aperture: np.ndarray, dt: float,
