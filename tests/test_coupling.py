@@ -494,9 +494,19 @@ def test_the_shared_crack_mode_opens_a_crack_as_sneddon_under_a_uniform_rise(cou
         lumped = coupled.pore_compliance()
         local, shared = coupled.crack_compliance()
         is_open = coupled._open_cracks().is_open
+        # Every crack as a factor (flow.SharedCompliance.modes), none as a block.
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setattr(coupled_module, "LOW_RANK_MIN_NODES", 0)
+            _, factored = coupled.crack_compliance()
     finally:
         m.bonded[:], m.sigma_n[:] = saved
-    assert shared is not None and abs(shared - shared.T).max() <= 1e-12 * abs(shared).max()
+    assert shared is not None
+    near = shared.near
+    assert abs(near - near.T).max() <= 1e-12 * abs(near).max()
+    assert factored.near.nnz == 0 and factored.modes.shape[1] > 0
+    probe = np.random.default_rng(0).uniform(size=net.n_unknowns)
+    assert np.allclose(factored @ probe, shared @ probe, rtol=1e-12, atol=0.0)
+    assert np.allclose(factored.diagonal(), shared.diagonal(), rtol=1e-12, atol=0.0)
     spring = m.model.contact_area / m.model.normal_stiffness
     closed = np.bincount(net.contact_unknown, weights=np.where(is_open, 0.0, spring),
                          minlength=net.n_unknowns)
