@@ -1,11 +1,13 @@
 """Wall time of each virtual lab test and of a calibration (issue 6).
 
     python benchmarks/labtests.py                      # the four tests, Table 2, seed 0
+    python benchmarks/labtests.py --dim 3              # UCS, BTS, NSCB on the 3D specimens
     python benchmarks/labtests.py --rock examples/rocks/strathbogie-granite-breakable.toml
     python benchmarks/labtests.py --calibrate          # also the example calibration (minutes)
     python benchmarks/labtests.py --calibrate examples/calibration/strathbogie-2d-breakable.toml
 
-Prints one line per test (value, grains, steps, wall time) and, with
+Prints one line per test (value, grains, elements, steps, node-steps per second,
+wall time; in 3D the time to the peak too) and, with
 --calibrate, the evaluations, the target-vs-achieved table and the total time.
 """
 
@@ -28,17 +30,31 @@ def main() -> None:
     parser.add_argument("--rock", default="strathbogie-granite",
                         help="rock preset or recipe TOML for the four tests")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--dim", type=int, choices=(2, 3), default=2,
+                        help="2: plane-strain sections; 3: the specimens as solids (no "
+                             "permeability test)")
     parser.add_argument("--calibrate", nargs="?", const=EXAMPLE, type=Path, default=None,
                         metavar="TARGETS", help="also time this calibration")
     args = parser.parse_args()
 
     measure(lab_test_config("bts", seed=0, loading={"max_strain": 1e-4}))  # compile kernels
     for test, key in KEYS.items():
+        if args.dim == 3 and test == "permeability":
+            continue
         start = time.perf_counter()
-        s = measure(lab_test_config(test, seed=args.seed, rock=args.rock))["summary"]
+        result = measure(lab_test_config(test, seed=args.seed, rock=args.rock,
+                                         dimension=args.dim))
         wall = time.perf_counter() - start
-        print(f"{test:<13} {key} = {s[key]:.4g}  ({s['n_grains']} grains, "
-              f"{s.get('steps', '-')} steps)  wall {wall:.2f} s", flush=True)
+        s = result["summary"]
+        line = (f"{test:<13} {key} = {s[key]:.4g}  ({s['n_grains']} grains, "
+                f"{s['n_elements']} elements, {s.get('steps', '-')} steps")
+        if "steps" in s:
+            nodes = result["assembly"].mesh.n_nodes
+            line += f", {nodes * s['steps'] / wall:.3g} node-steps/s"
+            curve = result["curve"]
+            if curve is not None:
+                line += f", peak at {s['peak_index'] + 1} of {len(curve.time)} samples"
+        print(line + f")  wall {wall:.2f} s", flush=True)
     if args.calibrate is not None:
         from grainfrac import calibration
 

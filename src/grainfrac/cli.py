@@ -315,6 +315,9 @@ def labtest(
     config: Annotated[Path | None, typer.Option(
         "--config", help="Lab-test TOML (specimen, grains, loading); flags override it.")] = None,
     seed: Annotated[int | None, typer.Option(help="Seed of the grain structure.")] = None,
+    dim: Annotated[int | None, typer.Option(
+        "--dim", help="2 (plane-strain section, default) or 3 (the specimen as a solid).")
+                   ] = None,
 ) -> None:
     """A virtual laboratory test (paper Table 3): curve, crack pattern, summary.json."""
     from grainfrac.labtests import TEST_KINDS, load_lab_test_config
@@ -323,7 +326,7 @@ def labtest(
     if test not in TEST_KINDS:
         _fail(ValueError(f"unknown lab test {test!r}; known: {', '.join(TEST_KINDS)}"))
     try:
-        overrides = {"test": test, "rock": rock, "seed": seed}
+        overrides = {"test": test, "rock": rock, "seed": seed, "dimension": dim}
         if config is not None:
             cfg = load_lab_test_config(config, **overrides)
         else:

@@ -138,6 +138,8 @@ class LabTestConfig(StrictModel):
     test: Literal["ucs", "bts", "nscb", "permeability"] = Field(description="which test")
     name: str | None = Field(None, description="run name (default: the test's name)")
     seed: int = Field(0, ge=0, description="random seed of grains, minerals, Weibull draws")
+    dimension: Literal[2, 3] = Field(
+        2, description="2: plane-strain section; 3: the Table 3 specimen as a solid")
     rock: str | materials.RockRecipe = Field(
         "strathbogie-granite", description="rock recipe: a preset name, a TOML path or inline")
     specimen: SpecimenShapeSpec | None = Field(None, description="default: paper Table 3")
@@ -156,6 +158,14 @@ class LabTestConfig(StrictModel):
             raise ValueError(
                 f"specimen.shape: the {self.test} test needs a "
                 f"{_SHAPE_OF_TEST[self.test]} (got {self.specimen.shape!r})")
+        return self
+
+    @model_validator(mode="after")
+    def _permeability_in_2d(self) -> LabTestConfig:
+        if self.dimension == 3 and self.test == "permeability":
+            raise ValueError("dimension: the permeability test runs in 2D only (got 3); "
+                             "the 3D face network's permeability is `grainfrac verify "
+                             "cubic-law3d`")
         return self
 
     @model_validator(mode="after")
@@ -192,8 +202,8 @@ class LabTestConfig(StrictModel):
     def specimen_config(self) -> SpecimenConfig:
         """The specimen to build (Table 3 dimensions unless given)."""
         spec = self.specimen if self.specimen is not None else _DEFAULT_SPECIMEN[self.test]()
-        return SpecimenConfig(seed=self.seed, rock=self.rock, specimen=spec, grains=self.grains,
-                              fissures=self.fissures)
+        return SpecimenConfig(seed=self.seed, dimension=self.dimension, rock=self.rock,
+                              specimen=spec, grains=self.grains, fissures=self.fissures)
 
     def recipe(self, base_dir: Path | None = None) -> materials.RockRecipe:
         return self.specimen_config().recipe(base_dir)

@@ -208,7 +208,11 @@ def reduce_nscb(curve: LoadingCurve, assembly: GrainAssembly, config: LabTestCon
 
 
 def build_test(config: LabTestConfig, assembly: GrainAssembly) -> PlatenTest:
-    """The platen test of ``config.test`` on ``assembly``."""
+    """The platen test of ``config.test`` on ``assembly`` (2D or 3D)."""
+    if assembly.dimension == 3:
+        from grainfrac.labtests.mechanical3d import TESTS_3D
+
+        return TESTS_3D[config.test](assembly)
     if config.test == "ucs":
         return ucs_test(assembly)
     if config.test == "bts":
@@ -220,3 +224,13 @@ def build_test(config: LabTestConfig, assembly: GrainAssembly) -> PlatenTest:
 
 
 REDUCERS = {"ucs": reduce_ucs, "bts": reduce_bts, "nscb": reduce_nscb}
+
+
+def reduce_curve(curve: LoadingCurve, assembly: GrainAssembly, config: LabTestConfig,
+                 ) -> dict[str, Any]:
+    """The lab's numbers of ``config.test`` from its loading curve (2D or 3D)."""
+    if assembly.dimension == 3:
+        from grainfrac.labtests.mechanical3d import REDUCERS_3D
+
+        return REDUCERS_3D[config.test](curve, assembly, config)
+    return REDUCERS[config.test](curve, assembly, config)

@@ -32,20 +32,23 @@ def penalty_stiffness(assembly: GrainAssembly, model: MechanicalModel,
     which safety 0.5 allows; with 1000x stiffer contacts the uncapped spring
     blew up at step 8)."""
     mesh = assembly.mesh
-    k = float(np.median(model.normal_stiffness)) * mesh.zone_size * mesh.thickness
+    # One zone's contact area: a zone edge x the unit thickness in 2D, a zone face in 3D.
+    area = mesh.zone_size * (mesh.thickness if mesh.dimension == 2 else mesh.zone_size)
+    k = float(np.median(model.normal_stiffness)) * area
     return np.minimum(k, model.nodal_stiffness[nodes])
 
 
 def closing_platen(assembly: GrainAssembly, model: MechanicalModel, nodes: np.ndarray,
-                   side: int, speed: float) -> Platen:
-    """A platen on ``nodes`` along y, touching them at rest, closing at ``speed`` (m/s).
+                   side: int, speed: float, axis: int = 1) -> Platen:
+    """A platen on ``nodes`` along ``axis`` (default y), touching them at rest, closing
+    at ``speed`` (m/s).
 
-    ``side = +1``: above the specimen, moving down; ``-1``: below, moving up;
-    ``speed = 0`` makes a fixed support.
+    ``side = +1``: on the positive side of the specimen, moving towards negative
+    ``axis``; ``-1``: the opposite; ``speed = 0`` makes a fixed support.
     """
-    y = assembly.mesh.node_xy[nodes, 1]
-    position = float(y.max() if side > 0 else y.min())
-    return Platen(np.asarray(nodes, dtype=np.int64), 1, side, position, -side * speed,
+    x = assembly.mesh.node_x[nodes, axis]
+    position = float(x.max() if side > 0 else x.min())
+    return Platen(np.asarray(nodes, dtype=np.int64), axis, side, position, -side * speed,
                   penalty_stiffness(assembly, model, nodes))
 
 
@@ -72,7 +75,7 @@ class PlatenTest:
         """``place(assembly, model, loads) -> loading platens``; ``place`` may add
         supports and fixed components to ``loads``, the loading platens are added here."""
         model = build_mechanical_model(assembly)
-        loads = Loads.free(model.n_nodes)
+        loads = Loads.free(model.n_nodes, model.dimension)
         loading = place(assembly, model, loads)
         loads.platens.extend(loading)
         solver = MechanicsSolver(model, loads)

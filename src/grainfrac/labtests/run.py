@@ -20,7 +20,7 @@ from grainfrac import materials
 from grainfrac.assembly import GrainAssembly, build_assembly
 from grainfrac.io.files import write_csv, write_json, write_toml
 from grainfrac.labtests.config import LabTestConfig
-from grainfrac.labtests.mechanical import REDUCERS, build_test
+from grainfrac.labtests.mechanical import build_test, reduce_curve
 from grainfrac.stages.platen import LoadingCurve
 from grainfrac.units import MM, MPA
 
@@ -36,6 +36,7 @@ def _common_summary(config: LabTestConfig, assembly: GrainAssembly) -> dict[str,
         "name": config.run_name,
         "rock": assembly.recipe.name,
         "seed": config.seed,
+        "dimension": assembly.dimension,
         "n_grains": assembly.n_grains,
         "n_elements": assembly.mesh.n_elements,
         "n_contacts": assembly.mesh.n_contacts,
@@ -56,7 +57,7 @@ def measure(config: LabTestConfig, *, recipe: materials.RockRecipe | None = None
     else:
         test = build_test(config, assembly)
         curve, reason = test.run(config.resolved_loading, progress)
-        summary.update(REDUCERS[config.test](curve, assembly, config))
+        summary.update(reduce_curve(curve, assembly, config))
         s = test.solver
         mode = np.asarray(s.cracks.mode, dtype=np.int64)
         summary.update({
@@ -99,6 +100,7 @@ def run_labtest(config: LabTestConfig, out: str | Path, *,
     """Run a lab test and write its run directory; return the summary."""
     from grainfrac.io.results import write_cracks
     from grainfrac.physics.cracks import crack_catalogue
+    from grainfrac.viz.cracks3d import write_crack_figures3d
     from grainfrac.viz.fractures import plot_fracture_pattern
 
     out = Path(out)
@@ -113,11 +115,15 @@ def run_labtest(config: LabTestConfig, out: str | Path, *,
     if curve is not None:
         contact, mode, times, energy = result["cracks"]
         cat = crack_catalogue(assembly, contact, times, mode, energy)
-        write_cracks(out / "cracks.csv", cat.rows(assembly.pair_names, [(config.test, 0.0)]))
+        write_cracks(out / "cracks.csv", cat.rows(assembly.pair_names, [(config.test, 0.0)]),
+                     assembly.dimension)
         _write_curve(out, config, curve, summary)
-        plot_fracture_pattern(assembly, contact, mode, out / "figures" / "cracks.png",
-                              title=f"{config.test.upper()} {config.run_name}: "
-                                    f"{summary['n_cracks']} cracks at the end")
+        title = f"{config.test.upper()} {config.run_name}: {summary['n_cracks']} cracks at the end"
+        if assembly.dimension == 3:
+            write_crack_figures3d(assembly, contact, mode, out / "figures", title=title)
+        else:
+            plot_fracture_pattern(assembly, contact, mode, out / "figures" / "cracks.png",
+                                  title=title)
     write_json(out / "summary.json", summary)
     return summary
 
