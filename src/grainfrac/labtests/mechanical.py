@@ -38,8 +38,18 @@ def _hold_x(loads: Loads, xy: np.ndarray, nodes: np.ndarray, x: float = 0.0) -> 
 
 
 def _extent(assembly: GrainAssembly) -> tuple[np.ndarray, np.ndarray]:
+    if assembly.dimension == 3:
+        solid = assembly.mesh.grains.solid
+        return solid.lo, solid.hi
     v = assembly.mesh.grains.vertices
     return v.min(axis=0), v.max(axis=0)
+
+
+def _thickness(assembly: GrainAssembly) -> float:
+    """The specimen's thickness: the section's unit thickness in 2D, the solid's
+    length along z in 3D (the Brazilian disc's and the NSCB half disc's B)."""
+    lo, hi = _extent(assembly)
+    return float(hi[2] - lo[2]) if assembly.dimension == 3 else assembly.mesh.thickness
 
 
 # --------------------------------------------------------------------------- UCS
@@ -67,24 +77,31 @@ def ucs_test(assembly: GrainAssembly) -> PlatenTest:
 
 def reduce_ucs(curve: LoadingCurve, assembly: GrainAssembly, config: LabTestConfig,
                ) -> dict[str, Any]:
-    """UCS (first peak), E (tangent at 50 % UCS) and nu, as a 3D test would report them."""
+    """UCS (first peak), E (tangent at 50 % UCS) and nu, as a cylinder test reports them
+    (in 2D converted from the plane-strain section's)."""
+    three = assembly.dimension == 3
     lo, hi = _extent(assembly)
-    area = float(hi[0] - lo[0]) * assembly.mesh.thickness
+    area = (assembly.mesh.grains.solid.section_area if three
+            else float(hi[0] - lo[0]) * assembly.mesh.thickness)
     stress = curve.array("load") / area
     eps_a, eps_l = curve.array("axial_strain"), curve.array("lateral_strain")
     peak, found = first_peak(stress, config.resolved_loading.peak_drop_fraction)
     ucs = float(stress[peak])
     window = (TANGENT_WINDOW[0] * ucs, TANGENT_WINDOW[1] * ucs)
-    modulus_ps = slope_between(eps_a, stress, *window, upto=peak + 1)
-    # nu' = d eps_lateral / d eps_axial over the same window (both positive here).
-    ratio_ps = slope_between(eps_a, eps_l, *window, by=stress, upto=peak + 1)
-    youngs, poisson = plane_strain_to_isotropic(modulus_ps, ratio_ps)
+    modulus = slope_between(eps_a, stress, *window, upto=peak + 1)
+    # nu = d eps_lateral / d eps_axial over the same window (both positive here).
+    ratio = slope_between(eps_a, eps_l, *window, by=stress, upto=peak + 1)
+    if three:
+        return {"ucs_MPa": ucs / MPA, "youngs_modulus_GPa": modulus / GPA,
+                "poisson_ratio": ratio, "axial_strain_at_peak": float(eps_a[peak]),
+                "loaded_area_m2": area, "peak_found": found, "peak_index": peak}
+    youngs, poisson = plane_strain_to_isotropic(modulus, ratio)
     return {
         "ucs_MPa": ucs / MPA,
         "youngs_modulus_GPa": youngs / GPA,
         "poisson_ratio": poisson,
-        "plane_strain_modulus_GPa": modulus_ps / GPA,
-        "plane_strain_poisson_ratio": ratio_ps,
+        "plane_strain_modulus_GPa": modulus / GPA,
+        "plane_strain_poisson_ratio": ratio,
         "axial_strain_at_peak": float(eps_a[peak]),
         "loaded_area_m2": area,
         "peak_found": found,
@@ -163,7 +180,7 @@ def reduce_bts(curve: LoadingCurve, assembly: GrainAssembly, config: LabTestConf
         found = True
     lo, hi = _extent(assembly)
     diameter = float(hi[1] - lo[1])
-    sigma = brazilian_tensile_strength(float(load[peak]), diameter, assembly.mesh.thickness)
+    sigma = brazilian_tensile_strength(float(load[peak]), diameter, _thickness(assembly))
     return {"bts_MPa": sigma / MPA, "peak_load_kN": float(load[peak]) / 1e3,
             "peak_found": found, "peak_index": peak, "split_found": split_found,
             "split_index": int(split[0]) if split_found else None}
@@ -201,7 +218,7 @@ def reduce_nscb(curve: LoadingCurve, assembly: GrainAssembly, config: LabTestCon
     peak, found = first_peak(load, config.resolved_loading.peak_drop_fraction)
     radius = spec.diameter_mm * MM / 2
     notch, span = spec.notch_length_mm * MM, spec.support_span_mm * MM
-    kic = nscb_fracture_toughness(float(load[peak]), radius, assembly.mesh.thickness, notch, span)
+    kic = nscb_fracture_toughness(float(load[peak]), radius, _thickness(assembly), notch, span)
     return {"kic_MPa_sqrt_m": kic / MPA, "peak_load_kN": float(load[peak]) / 1e3,
             "geometry_factor": nscb_geometry_factor(span, radius, notch),
             "peak_found": found, "peak_index": peak}
@@ -224,13 +241,3 @@ def build_test(config: LabTestConfig, assembly: GrainAssembly) -> PlatenTest:
 
 
 REDUCERS = {"ucs": reduce_ucs, "bts": reduce_bts, "nscb": reduce_nscb}
-
-
-def reduce_curve(curve: LoadingCurve, assembly: GrainAssembly, config: LabTestConfig,
-                 ) -> dict[str, Any]:
-    """The lab's numbers of ``config.test`` from its loading curve (2D or 3D)."""
-    if assembly.dimension == 3:
-        from grainfrac.labtests.mechanical3d import REDUCERS_3D
-
-        return REDUCERS_3D[config.test](curve, assembly, config)
-    return REDUCERS[config.test](curve, assembly, config)

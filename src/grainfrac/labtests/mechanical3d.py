@@ -1,36 +1,27 @@
-"""UCS, BTS and NSCB on 3D specimens (paper Table 3 shapes): platens and readings.
+"""UCS, BTS and NSCB on 3D specimens (paper Table 3 shapes): where the platens go and
+what is monitored.
 
 The shapes are those of :func:`grainfrac.geometry.solids3d.specimen_solid`: the UCS
 cylinder and the Brazilian disc have their axis along z, the NSCB half disc its base
-on y = 0 and its thickness along z. The readings are the 2D tests' rules (first
-peak, diametral split, tangent E at 50 % UCS) with the real 3D section: no
-plane-strain conversion. Rigid-body drift is removed by holding the in-plane
-displacement of one node under each loading platen (the friction a real platen has
-at one point); the platens themselves are frictionless.
+on y = 0 and its thickness along z. The curves are read by the 2D tests' reducers
+(:mod:`grainfrac.labtests.mechanical`: first peak, diametral split, tangent E at
+50 % UCS) with the solid's section and thickness and no plane-strain conversion.
+Rigid-body drift is removed by holding the in-plane displacement of one node under
+each loading platen (the friction a real platen has at one point); the platens
+themselves are frictionless.
 """
 
 from __future__ import annotations
-
-from typing import Any
 
 import numpy as np
 
 from grainfrac.analysis.fractures import CONNECT_FACTOR
 from grainfrac.assembly import GrainAssembly
 from grainfrac.geometry.solids3d import LATERAL
-from grainfrac.labtests.config import LabTestConfig
-from grainfrac.labtests.formulas import (
-    brazilian_tensile_strength,
-    nscb_fracture_toughness,
-    nscb_geometry_factor,
-    slope_between,
-)
-from grainfrac.labtests.mechanical import TANGENT_WINDOW, diametral_split
+from grainfrac.labtests.mechanical import diametral_split
 from grainfrac.labtests.platens import PlatenTest, closing_platen
 from grainfrac.loading.boundary import Loads
 from grainfrac.physics.model import MechanicalModel
-from grainfrac.stages.platen import LoadingCurve, first_peak
-from grainfrac.units import GPA, MM, MPA
 
 Z = 2
 
@@ -71,28 +62,6 @@ def ucs_test3d(assembly: GrainAssembly) -> PlatenTest:
     return PlatenTest.build(assembly, place, length, monitors)
 
 
-def reduce_ucs3d(curve: LoadingCurve, assembly: GrainAssembly, config: LabTestConfig,
-                 ) -> dict[str, Any]:
-    """UCS (first peak), E (tangent at 50 % UCS) and nu on the cylinder's section."""
-    area = _solid(assembly).section_area
-    stress = curve.array("load") / area
-    eps_a, eps_l = curve.array("axial_strain"), curve.array("lateral_strain")
-    peak, found = first_peak(stress, config.resolved_loading.peak_drop_fraction)
-    ucs = float(stress[peak])
-    window = (TANGENT_WINDOW[0] * ucs, TANGENT_WINDOW[1] * ucs)
-    youngs = slope_between(eps_a, stress, *window, upto=peak + 1)
-    poisson = slope_between(eps_a, eps_l, *window, by=stress, upto=peak + 1)
-    return {
-        "ucs_MPa": ucs / MPA,
-        "youngs_modulus_GPa": youngs / GPA,
-        "poisson_ratio": poisson,
-        "axial_strain_at_peak": float(eps_a[peak]),
-        "loaded_area_m2": area,
-        "peak_found": found,
-        "peak_index": peak,
-    }
-
-
 # --------------------------------------------------------------------------- BTS
 def bts_test3d(assembly: GrainAssembly) -> PlatenTest:
     """The disc between flat platens on its lateral surface along the y diameter.
@@ -125,26 +94,6 @@ def bts_test3d(assembly: GrainAssembly) -> PlatenTest:
     return PlatenTest.build(assembly, place, 2.0 * radius, {"split": split_monitor})
 
 
-def reduce_bts3d(curve: LoadingCurve, assembly: GrainAssembly, config: LabTestConfig,
-                 ) -> dict[str, Any]:
-    """Brazilian tensile strength (paper Eq. 5) at the diametral split, as in 2D
-    (:func:`~grainfrac.labtests.mechanical.reduce_bts`), with the disc's thickness."""
-    load = curve.array("load")
-    peak, found = first_peak(load, config.resolved_loading.peak_drop_fraction)
-    split = np.flatnonzero(curve.array("split") > 0)
-    split_found = len(split) > 0
-    if split_found and split[0] < peak:
-        peak = int(np.argmax(load[:split[0] + 1]))
-        found = True
-    solid = _solid(assembly)
-    diameter = float(solid.hi[1] - solid.lo[1])
-    thickness = float(solid.hi[Z] - solid.lo[Z])
-    sigma = brazilian_tensile_strength(float(load[peak]), diameter, thickness)
-    return {"bts_MPa": sigma / MPA, "peak_load_kN": float(load[peak]) / 1e3,
-            "peak_found": found, "peak_index": peak, "split_found": split_found,
-            "split_index": int(split[0]) if split_found else None}
-
-
 # --------------------------------------------------------------------------- NSCB
 def nscb_test3d(assembly: GrainAssembly) -> PlatenTest:
     """Three-point bending: rollers along z under the base at +-S/2, a platen along
@@ -162,22 +111,4 @@ def nscb_test3d(assembly: GrainAssembly) -> PlatenTest:
     return PlatenTest.build(assembly, place, float(solid.hi[1] - solid.lo[1]))
 
 
-def reduce_nscb3d(curve: LoadingCurve, assembly: GrainAssembly, config: LabTestConfig,
-                  ) -> dict[str, Any]:
-    """Fracture toughness from the peak bending load (paper Eqs. 6-7) and the half
-    disc's thickness."""
-    spec = config.specimen_config().specimen
-    load = curve.array("load")
-    peak, found = first_peak(load, config.resolved_loading.peak_drop_fraction)
-    radius = spec.diameter_mm * MM / 2
-    notch, span = spec.notch_length_mm * MM, spec.support_span_mm * MM
-    solid = _solid(assembly)
-    thickness = float(solid.hi[Z] - solid.lo[Z])
-    kic = nscb_fracture_toughness(float(load[peak]), radius, thickness, notch, span)
-    return {"kic_MPa_sqrt_m": kic / MPA, "peak_load_kN": float(load[peak]) / 1e3,
-            "geometry_factor": nscb_geometry_factor(span, radius, notch),
-            "peak_found": found, "peak_index": peak}
-
-
 TESTS_3D = {"ucs": ucs_test3d, "bts": bts_test3d, "nscb": nscb_test3d}
-REDUCERS_3D = {"ucs": reduce_ucs3d, "bts": reduce_bts3d, "nscb": reduce_nscb3d}

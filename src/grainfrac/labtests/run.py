@@ -20,7 +20,7 @@ from grainfrac import materials
 from grainfrac.assembly import GrainAssembly, build_assembly
 from grainfrac.io.files import write_csv, write_json, write_toml
 from grainfrac.labtests.config import LabTestConfig
-from grainfrac.labtests.mechanical import build_test, reduce_curve
+from grainfrac.labtests.mechanical import REDUCERS, build_test
 from grainfrac.stages.platen import LoadingCurve
 from grainfrac.units import MM, MPA
 
@@ -57,7 +57,7 @@ def measure(config: LabTestConfig, *, recipe: materials.RockRecipe | None = None
     else:
         test = build_test(config, assembly)
         curve, reason = test.run(config.resolved_loading, progress)
-        summary.update(reduce_curve(curve, assembly, config))
+        summary.update(REDUCERS[config.test](curve, assembly, config))
         s = test.solver
         mode = np.asarray(s.cracks.mode, dtype=np.int64)
         summary.update({
