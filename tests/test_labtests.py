@@ -61,7 +61,9 @@ def test_bts_is_read_at_the_split_not_at_the_lock_up():
     curve = LoadingCurve(time=list(range(100)), closure=list(range(100)), load=list(load),
                          n_cracks=[0] * 100, extra={"split": [0.0] * 40 + [1.0] * 60})
 
-    class Box:  # the reducer reads only the disk's extent and thickness
+    class Box:  # the reducer reads only the dimension, the disk's extent and thickness
+        dimension = 2
+
         class mesh:
             thickness = 0.019
 
