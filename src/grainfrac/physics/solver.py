@@ -280,8 +280,9 @@ class MechanicsSolver:
 
     def note_state_edit(self) -> None:
         """Say that the host changed the state arrays between cycles (beyond the loads
-        and the contacts' fluid pressures): the GPU backend copies the whole state to
-        the device before the next cycle. :meth:`restore_state` and
+        and the inputs sent every cycle: contact fluid pressures and opening offsets,
+        expansion rates): the GPU backend copies the whole state to the device before
+        the next cycle. :meth:`restore_state` and
         :meth:`load_state_arrays` say it themselves."""
         self._state_edits += 1
 
