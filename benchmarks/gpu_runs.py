@@ -3,11 +3,11 @@
 Two measurements, each a plain ``run_scenario`` into a run directory:
 
 ``same-answers``
-    A small 3D hybrid slab (26 x 26 x 6 mm, SCDA to 3 MPa, drill-out, injection
-    past breakdown; about 17,000 explicit steps) on the CPU backend and on the
-    CUDA backend. Prints the crack catalogues compared as sets of (contact, mode),
-    whether the order is the same, and the largest relative difference of the
-    history's well pressures.
+    A small 3D hybrid slab (``tests/data/hybrid3d-small.toml``: 26 x 26 x 6 mm, SCDA
+    to 3 MPa, drill-out, injection past breakdown; about 23,000 explicit steps) on
+    the CPU backend and on the CUDA backend. Prints the crack catalogues compared as
+    sets of (contact, mode), whether the order is the same, and the largest relative
+    difference of the history's well pressures.
 
 ``cube``
     ``examples/3d/hybrid-case3-cube.toml`` (the paper's 100 mm cube, Case 3, SCDA
@@ -57,18 +57,7 @@ from grainfrac.simulation import run_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 CUBE = ROOT / "examples" / "3d" / "hybrid-case3-cube.toml"
-SMALL_HYBRID = {
-    "name": "same-answers-3d-hybrid", "seed": 1, "dimension": 3,
-    "specimen": {"shape": "slab", "width_mm": 26, "height_mm": 26, "thickness_mm": 6,
-                 "borehole_diameter_mm": 8},
-    "stress": {"case": "case2"},
-    "stages": [{"kind": "equilibrate"},
-               {"kind": "scda", "peak_pressure_MPa": 3.0, "max_duration_ms": 1.0,
-                "scda": "scda"},
-               {"kind": "drill_out", "relax_steps": 1000},
-               {"kind": "inject", "rate_ml_per_min": 180.0, "duration_ms": 1.0,
-                "stop_after_breakdown_ms": 0.3, "stop_at_boundary": False}],
-}
+SMALL_HYBRID = ROOT / "tests" / "data" / "hybrid3d-small.toml"
 
 
 def say(*parts) -> None:
@@ -121,7 +110,7 @@ def cracks(out: Path) -> list[tuple[int, str]]:
 
 
 def same_answers(out: Path) -> dict:
-    scenario = validate(Scenario, SMALL_HYBRID)
+    scenario = validate(Scenario, tomllib.loads(SMALL_HYBRID.read_text()))
     result = {}
     for name in ("cpu", "cuda"):
         start = time.perf_counter()

@@ -19,6 +19,8 @@ themselves are checked against the CPU kernels under the simulator
 from __future__ import annotations
 
 import csv
+import tomllib
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -34,18 +36,7 @@ from grainfrac.physics.solver import BACKEND_VARIABLE, resolve_backend
 from grainfrac.scenario import Scenario
 from grainfrac.simulation import run_scenario
 
-HYBRID = {
-    "name": "tiny-3d-hybrid", "seed": 1, "dimension": 3,
-    "specimen": {"shape": "slab", "width_mm": 26, "height_mm": 26, "thickness_mm": 6,
-                 "borehole_diameter_mm": 8},
-    "stress": {"case": "case2"},
-    "stages": [{"kind": "equilibrate"},
-               {"kind": "scda", "peak_pressure_MPa": 3.0, "max_duration_ms": 1.0,
-                "scda": "scda"},
-               {"kind": "drill_out", "relax_steps": 1000},
-               {"kind": "inject", "rate_ml_per_min": 180.0, "duration_ms": 1.0,
-                "stop_after_breakdown_ms": 0.3, "stop_at_boundary": False}],
-}
+HYBRID = tomllib.loads((Path(__file__).parent / "data" / "hybrid3d-small.toml").read_text())
 
 
 class _DeviceArray(np.ndarray):
