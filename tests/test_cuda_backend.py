@@ -80,6 +80,7 @@ def test_gpu_backend_matches_cpu():
     _check(report)
 
 
+@pytest.mark.slow  # 13 s; keeps the default suite under 10 min
 def test_gpu_benchmark_runs_end_to_end_in_the_simulator():
     """``benchmarks/gpu.py --sim-smoke``: every code path of the GPU benchmark, tiny."""
     env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_ENABLE_CUDASIM")}
