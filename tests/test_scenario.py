@@ -33,7 +33,7 @@ from grainfrac.scenario import (
 )
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
-EXAMPLE_FILES = sorted(EXAMPLES.glob("*.toml"))
+EXAMPLE_FILES = sorted(EXAMPLES.glob("*.toml")) + sorted((EXAMPLES / "3d").glob("*.toml"))
 EXPECTED_EXAMPLES = (
     [f"scda-case{i}.toml" for i in range(1, 5)]
     + [f"hs-case{i}-18mlmin.toml" for i in range(1, 5)]
@@ -66,7 +66,7 @@ def test_expected_examples_exist():
     assert not missing, missing
 
 
-@pytest.mark.parametrize("path", EXAMPLE_FILES, ids=lambda p: p.name)
+@pytest.mark.parametrize("path", EXAMPLE_FILES, ids=lambda p: str(p.relative_to(EXAMPLES)))
 def test_example_validates_and_round_trips(path, tmp_path):
     scenario, recipe = load_scenario(path)
     assert isinstance(recipe, RockRecipe)
