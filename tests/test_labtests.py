@@ -220,8 +220,12 @@ def test_run_directory_has_curve_cracks_figures_summary(table2_runs):
         assert key in summary
 
 
+# The NSCB cases take 24 s and 17 s: slow, to keep the default suite under 10 min.
+NSCB_SLOW = pytest.mark.slow
+
+
 @pytest.mark.parametrize("test,key", [("ucs", "ucs_MPa"), ("bts", "bts_MPa"),
-                                      ("nscb", "kic_MPa_sqrt_m")])
+                                      pytest.param("nscb", "kic_MPa_sqrt_m", marks=NSCB_SLOW)])
 def test_halving_the_platen_speed_changes_strength_by_under_3_percent(test, key):
     base = lab_test_config(test, seed=1)
     speed = base.platen_speed_mm_per_s
@@ -235,7 +239,7 @@ def test_halving_the_platen_speed_changes_strength_by_under_3_percent(test, key)
 
 @pytest.mark.parametrize("test,key,fracture_energy", [
     ("bts", "bts_MPa", 100.0),  # softening contacts, G_I = G_II = 100 J/m2
-    ("nscb", "kic_MPa_sqrt_m", 0.0),  # brittle contacts
+    pytest.param("nscb", "kic_MPa_sqrt_m", 0.0, marks=NSCB_SLOW),  # brittle contacts
 ])
 def test_strengths_x_f_and_fracture_energies_x_f2_give_f_times_the_strength(
         test, key, fracture_energy):
