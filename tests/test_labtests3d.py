@@ -42,6 +42,7 @@ def test_3d_ucs_recovers_the_elastic_constants_of_a_homogeneous_grain_assembly()
     assert abs(e_err) < 0.05 and abs(nu_err) < 0.02
 
 
+@pytest.mark.slow  # 13 s; keeps the default suite under 10 min
 def test_cli_labtest_dim3_splits_a_brazilian_disc(tmp_path):
     """``grainfrac labtest bts --dim 3`` on a small disc: a split along the loaded
     diameter, the 3D crack figures and the summary."""

@@ -146,6 +146,7 @@ def test_sweep_table_is_complete_with_correct_statistics(reference):
     assert plan["last_invocation"]["computed"] == 4 and plan["last_invocation"]["complete"]
 
 
+@pytest.mark.slow  # 13 s; keeps the default suite under 10 min
 def test_a_killed_worker_loses_and_duplicates_nothing(client, reference, tmp_path):
     killed: dict = {}
 
