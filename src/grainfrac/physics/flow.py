@@ -496,8 +496,12 @@ class SharedCompliance:
     def __matmul__(self, p: np.ndarray) -> np.ndarray:
         return self.near @ p + self.modes @ (self.kappa * (self.modes.T @ p))
 
+    def modes_diagonal(self) -> np.ndarray:
+        """The diagonal of ``modes diag(kappa) modes^T``."""
+        return self.modes.multiply(self.modes) @ self.kappa
+
     def diagonal(self) -> np.ndarray:
-        return self.near.diagonal() + self.modes.multiply(self.modes) @ self.kappa
+        return self.near.diagonal() + self.modes_diagonal()
 
 
 def implicit_step(network: FlowNetwork, state: FluidState, aperture: np.ndarray, dt: float,
@@ -614,7 +618,7 @@ def _solve_without_suction(matrix: sp.csr_matrix, rhs: np.ndarray, fixed: np.nda
     dry = np.zeros_like(fixed) if dry is None else dry & ~fixed
     diagonal = matrix.diagonal()
     if low_rank is not None:
-        diagonal = diagonal + low_rank.modes.multiply(low_rank.modes) @ low_rank.kappa
+        diagonal = diagonal + low_rank.modes_diagonal()  # ``near`` is in the matrix
     for _ in range(max_rounds):
         free = ~fixed & ~dry
         if free.any():

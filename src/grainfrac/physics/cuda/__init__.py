@@ -11,12 +11,12 @@ the backend against the CPU on machines without a GPU.
 from grainfrac.physics.cuda._numba import SIMULATOR, cuda_available, device_name
 from grainfrac.physics.cuda.mechanics import CudaMechanics
 from grainfrac.physics.cuda.stepper import (
-    copy_to_host,
+    copy_fields,
     device_energies,
     fetch_cracks,
     run_steps_cuda,
     to_device,
 )
 
-__all__ = ["SIMULATOR", "CudaMechanics", "copy_to_host", "cuda_available", "device_energies",
+__all__ = ["SIMULATOR", "CudaMechanics", "copy_fields", "cuda_available", "device_energies",
            "device_name", "fetch_cracks", "run_steps_cuda", "to_device"]

@@ -41,13 +41,6 @@ def to_device(record):
                           else a for a in record))
 
 
-def copy_to_host(device_record, host_record) -> None:
-    """Copy a device record's arrays into a host record of the same type, in place."""
-    for dev, host in zip(device_record, host_record, strict=True):
-        if isinstance(host, np.ndarray):
-            host[...] = dev.copy_to_host()
-
-
 def copy_fields(source, target, names: tuple[str, ...]) -> None:
     """Copy the named arrays of one record into another of the same type, in place:
     host to device or device to host (whichever ``target`` holds)."""
