@@ -35,7 +35,7 @@ from grainfrac.geometry.specimens import (
     outline,
 )
 from grainfrac.geometry.tessellation import tessellate
-from grainfrac.geometry.tessellation3d import tessellate3d
+from grainfrac.geometry.tessellation3d import TooFewGrains, tessellate3d
 from grainfrac.io.config import StrictModel, read_toml, source_path, validate
 from grainfrac.units import MM
 
@@ -351,8 +351,11 @@ def _build_assembly3d(config: SpecimenConfig, recipe: materials.RockRecipe) -> G
     rngs = _random_streams(config.seed)
     zone = config.grains.zone_size_mm * MM
     solid = specimen_solid(config.specimen, zone)
-    cx = tessellate3d(solid, config.grains.min_edge_mm * MM, config.grains.max_edge_mm * MM,
-                      zone, rngs["tessellation"])
+    try:
+        cx = tessellate3d(solid, config.grains.min_edge_mm * MM,
+                          config.grains.max_edge_mm * MM, zone, rngs["tessellation"])
+    except TooFewGrains as exc:
+        raise ConfigError("grains.max_edge_mm", str(exc)) from None
     mesh = mesh_grains3d(cx, zone, rngs["tessellation"],
                          (config.grains.min_edge_mm * MM, config.grains.max_edge_mm * MM))
 

@@ -41,7 +41,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import Delaunay, HalfspaceIntersection, cKDTree
+from scipy.spatial import Delaunay, HalfspaceIntersection, QhullError, cKDTree
 
 from grainfrac.errors import GeometryError
 from grainfrac.geometry.solids3d import BOREHOLE, Solid, polygon_normals
@@ -49,6 +49,11 @@ from grainfrac.geometry.solids3d import BOREHOLE, Solid, polygon_normals
 _MERGE_TOL = 1e-9  # m: vertices computed twice by Qhull agree to ~1e-16 m
 _MESH_MIN_EDGE = 0.4  # x zone size: shortest edge the mesher accepts
 _REPAIR_SHRINK = 0.6  # a repaired lattice seed's new displacement, x its previous size
+MIN_SEEDS = 4  # fewest grains a 3D specimen is built with; fewer make no assembly
+
+
+class TooFewGrains(GeometryError):
+    """The specimen holds fewer than :data:`MIN_SEEDS` grains at the requested size."""
 
 
 @dataclass(frozen=True)
@@ -278,6 +283,11 @@ def tessellate3d(
     n_ring = len(ring_seeds)
     disc_seeds = disc.seeds if disc is not None else np.empty((0, 3))
     n_seeds = n_lat + n_ring + len(disc_seeds)
+    if n_seeds < MIN_SEEDS:
+        raise TooFewGrains(
+            f"specimen too small for its grains: it holds {n_seeds} grain seed(s) at a "
+            f"{a * 1e3:.2g} mm grain edge, at least {MIN_SEEDS} are needed; enlarge the "
+            f"specimen or lower grains.min_edge_mm / grains.max_edge_mm")
     seed_ring = np.arange(n_seeds) >= n_lat
     grain_of_seed = np.arange(n_seeds)
     if ring is not None:
@@ -654,7 +664,14 @@ def _complex(solid: Solid, seeds: np.ndarray, grain_of_seed: np.ndarray,
     points = np.vstack((seeds, mirrors))
     n = len(seeds)
     label = np.concatenate((np.arange(n), -1 - side))
-    tri = Delaunay(points)
+    try:
+        tri = Delaunay(points)
+    except QhullError as exc:
+        # Seeds and mirrors in a degenerate position: a few seeds in a small solid.
+        raise GeometryError(
+            f"the grain seeds of this specimen ({n} of them) have no 3D Voronoi diagram "
+            f"(Qhull: {str(exc).splitlines()[0]}); enlarge the specimen or lower "
+            f"grains.min_edge_mm / grains.max_edge_mm") from None
     indptr, indices = tri.vertex_neighbor_vertices
     scale = float(solid.extent.max())
     clip = solid.clip_halfspaces()
