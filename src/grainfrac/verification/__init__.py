@@ -38,6 +38,7 @@ CASES: dict[str, Callable[..., list[Comparison]]] = {
     "patch3d": elastic3d.patch3d,
     "lame3d": elastic3d.lame3d,
     "kirsch3d": elastic3d.kirsch3d,
+    "kirsch3d-plane-strain": elastic3d.kirsch3d_plane_strain,
     "cubic-law3d": hydraulic3d.cubic_law3d,
     "penny": penny.penny,
 }

@@ -147,7 +147,7 @@ def step_kernels(d: int, tpb: int):
                 trace = sxx + syy
                 for k in range(3):
                     n = cells[e, k]
-                    fx, fy = triangle.node_force(elements, e, k, sxx, syy, sxy)
+                    fx, fy = triangle.node_force(elements, e, k, measure[e], sxx, syy, sxy)
                     cuda.atomic.add(force, (n, 0), -fx)
                     cuda.atomic.add(force, (n, 1), -fy)
             else:
@@ -161,8 +161,8 @@ def step_kernels(d: int, tpb: int):
                 trace = sxx + syy + szz
                 for k in range(4):
                     n = cells[e, k]
-                    fx, fy, fz = tetrahedron.node_force(elements, e, k, sxx, syy, szz, syz,
-                                                        sxz, sxy)
+                    fx, fy, fz = tetrahedron.node_force(elements, e, k, measure[e], sxx, syy,
+                                                        szz, syz, sxz, sxy)
                     cuda.atomic.add(force, (n, 0), -fx)
                     cuda.atomic.add(force, (n, 1), -fy)
                     cuda.atomic.add(force, (n, 2), -fz)

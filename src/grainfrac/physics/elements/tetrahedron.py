@@ -73,12 +73,11 @@ def stress(u, elements, state, e):
 
 
 @njit(cache=True, inline="always")
-def node_force(elements, e, k, sxx, syy, szz, syz, sxz, sxy):
+def node_force(elements, e, k, vol, sxx, syy, szz, syz, sxz, sxy):
     """V B_k^T sigma: what node ``k`` of tetrahedron ``e`` loses to the stress (N)."""
     gx = elements.grad[e, k, 0]
     gy = elements.grad[e, k, 1]
     gz = elements.grad[e, k, 2]
-    vol = elements.measure[e]
     return (vol * (gx * sxx + gy * sxy + gz * sxz), vol * (gx * sxy + gy * syy + gz * syz),
             vol * (gx * sxz + gy * syz + gz * szz))
 
@@ -92,6 +91,7 @@ def internal_forces(u, elements, state, force):
     cells, out = elements.cells, state.stress
     for e in range(cells.shape[0]):
         sxx, syy, szz, syz, sxz, sxy = stress(u, elements, state, e)
+        vol = elements.measure[e]
         out[e, 0] = sxx
         out[e, 1] = syy
         out[e, 2] = szz
@@ -100,7 +100,7 @@ def internal_forces(u, elements, state, force):
         out[e, 5] = sxy
         for k in range(4):
             n = cells[e, k]
-            fx, fy, fz = node_force(elements, e, k, sxx, syy, szz, syz, sxz, sxy)
+            fx, fy, fz = node_force(elements, e, k, vol, sxx, syy, szz, syz, sxz, sxy)
             force[n, 0] -= fx
             force[n, 1] -= fy
             force[n, 2] -= fz
@@ -112,6 +112,7 @@ def node_forces(u, elements, state, per_node):
     out = state.stress
     for e in prange(elements.cells.shape[0]):
         sxx, syy, szz, syz, sxz, sxy = stress(u, elements, state, e)
+        vol = elements.measure[e]
         out[e, 0] = sxx
         out[e, 1] = syy
         out[e, 2] = szz
@@ -119,7 +120,7 @@ def node_forces(u, elements, state, per_node):
         out[e, 4] = sxz
         out[e, 5] = sxy
         for k in range(4):
-            fx, fy, fz = node_force(elements, e, k, sxx, syy, szz, syz, sxz, sxy)
+            fx, fy, fz = node_force(elements, e, k, vol, sxx, syy, szz, syz, sxz, sxy)
             per_node[e, k, 0] = fx
             per_node[e, k, 1] = fy
             per_node[e, k, 2] = fz

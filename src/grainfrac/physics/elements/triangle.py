@@ -66,11 +66,10 @@ def stress(u, elements, state, e):
 
 
 @njit(cache=True, inline="always")
-def node_force(elements, e, k, sxx, syy, sxy):
+def node_force(elements, e, k, vol, sxx, syy, sxy):
     """V B_k^T sigma: what node ``k`` of triangle ``e`` loses to the stress (N)."""
     g0 = elements.grad[e, k, 0]
     g1 = elements.grad[e, k, 1]
-    vol = elements.measure[e]
     return vol * (g0 * sxx + g1 * sxy), vol * (g0 * sxy + g1 * syy)
 
 
@@ -85,13 +84,14 @@ def internal_forces(u, elements, state, force):
     cells, out = elements.cells, state.stress
     for e in range(cells.shape[0]):
         sxx, syy, sxy, szz = stress(u, elements, state, e)
+        vol = elements.measure[e]
         out[e, 0] = sxx
         out[e, 1] = syy
         out[e, 2] = sxy
         out[e, 3] = szz
         for k in range(3):
             n = cells[e, k]
-            fx, fy = node_force(elements, e, k, sxx, syy, sxy)
+            fx, fy = node_force(elements, e, k, vol, sxx, syy, sxy)
             force[n, 0] -= fx
             force[n, 1] -= fy
 
@@ -103,12 +103,13 @@ def node_forces(u, elements, state, per_node):
     out = state.stress
     for e in prange(elements.cells.shape[0]):
         sxx, syy, sxy, szz = stress(u, elements, state, e)
+        vol = elements.measure[e]
         out[e, 0] = sxx
         out[e, 1] = syy
         out[e, 2] = sxy
         out[e, 3] = szz
         for k in range(3):
-            fx, fy = node_force(elements, e, k, sxx, syy, sxy)
+            fx, fy = node_force(elements, e, k, vol, sxx, syy, sxy)
             per_node[e, k, 0] = fx
             per_node[e, k, 1] = fy
 
