@@ -63,8 +63,9 @@ def ucs_test3d(assembly: GrainAssembly) -> PlatenTest:
 
 
 # --------------------------------------------------------------------------- BTS
-def bts_test3d(assembly: GrainAssembly) -> PlatenTest:
-    """The disc between flat platens on its lateral surface along the y diameter.
+def bts_test3d(assembly: GrainAssembly, safety: float = 0.5) -> PlatenTest:
+    """The disc between flat platens on its lateral surface along the y diameter
+    (``safety``: :meth:`PlatenTest.build`).
 
     The ``split`` monitor is 1 from the first sample at which the cracks, seen along
     the disc's axis, cross the central half of the loaded diameter
@@ -91,7 +92,7 @@ def bts_test3d(assembly: GrainAssembly) -> PlatenTest:
             split[0] = diametral_split(mesh.contact_x[contacts, :2], radius, connect)
         return float(split[0])
 
-    return PlatenTest.build(assembly, place, 2.0 * radius, {"split": split_monitor})
+    return PlatenTest.build(assembly, place, 2.0 * radius, {"split": split_monitor}, safety)
 
 
 # --------------------------------------------------------------------------- NSCB

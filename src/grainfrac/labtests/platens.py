@@ -71,10 +71,12 @@ class PlatenTest:
     @classmethod
     def build(cls, assembly: GrainAssembly, place: Callable, size: float,
               monitors: dict[str, Callable[[MechanicsSolver], float]] | None = None,
-              ) -> PlatenTest:
+              safety: float = 0.5) -> PlatenTest:
         """``place(assembly, model, loads) -> loading platens``; ``place`` may add
-        supports and fixed components to ``loads``, the loading platens are added here."""
-        model = build_mechanical_model(assembly)
+        supports and fixed components to ``loads``, the loading platens are added here.
+        ``safety``: the time step's fraction of the critical step (the masses do not
+        depend on it, so halving it halves the step alone)."""
+        model = build_mechanical_model(assembly, safety=safety)
         loads = Loads.free(model.n_nodes, model.dimension)
         loading = place(assembly, model, loads)
         loads.platens.extend(loading)
