@@ -257,7 +257,8 @@ BAD = {
         "specimen.borehole_diameter_mm", ["> 0"],
     ),
     "equilibrate on a disk": (
-        {"specimen": {"shape": "disk"}, "stages": [EQ]}, "specimen.shape", ["slab or rectangle"],
+        {"specimen": {"shape": "disk"}, "stages": [EQ]}, "specimen.shape",
+        ["slab, rectangle or hollow cylinder"],
     ),
     "both case and values in stress": (
         {"stress": {"case": "case1", "sigma_x_MPa": 2.0, "sigma_y_MPa": 4.0}, "stages": [EQ]},

@@ -27,6 +27,7 @@ from grainfrac.geometry.specimens import (
     SHAPES_3D,
     SLAB_THICKNESS_3D_MM,
     DiskSpec,
+    HollowCylinderSpec,
     PennySpec,
     RectangleSpec,
     SemiDiskSpec,
@@ -121,12 +122,13 @@ class SpecimenConfig(StrictModel):
             _check_3d(spec, self.grains.zone_size_mm)
         clear = self.fissures.clear_radius_mm
         if clear > 0:
-            if not (isinstance(spec, SlabSpec) and spec.borehole_diameter_mm > 0):
+            if getattr(spec, "borehole_diameter_mm", 0.0) <= 0:
                 raise ValueError(
                     "fissures.clear_radius_mm: must be 0 for a specimen without a borehole "
                     f"(got {clear:g})"
                 )
-            limit = min(spec.width_mm, spec.height_mm) / 2
+            limit = (spec.diameter_mm if isinstance(spec, HollowCylinderSpec)
+                     else min(spec.width_mm, spec.height_mm)) / 2
             if clear >= limit:
                 raise ValueError(
                     f"fissures.clear_radius_mm: must be < half the smallest side ({limit:g} mm)"
@@ -177,6 +179,9 @@ def _check_3d(spec, zone: float) -> None:
     elif isinstance(spec, PennySpec):
         least += [("disc_diameter_mm", spec.disc_diameter_mm, 2.0),
                   ("size_mm", spec.size_mm, 4.0)]
+    elif isinstance(spec, HollowCylinderSpec):
+        least += [("diameter_mm", spec.diameter_mm, 4.0), ("height_mm", spec.height_mm, 1.0),
+                  ("borehole_diameter_mm", spec.borehole_diameter_mm, 1.0)]
     for name, value, zones in least:
         if value < zones * zone:
             raise ValueError(

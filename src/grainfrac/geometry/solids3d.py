@@ -87,7 +87,8 @@ class Solid:
     Attributes
     ----------
     kind : str
-        Specimen name (``slab``, ``penny``, ``cylinder``, ``disk``, ``semi_disk``).
+        Specimen name (``slab``, ``penny``, ``cylinder``, ``disk``, ``semi_disk``,
+        ``hollow_cylinder``).
     lo, hi : np.ndarray
         (3,) corners of the bounding box (m).
     borehole_radius : float
@@ -320,16 +321,23 @@ def _circle_facets(radius: float, n: int, first: int, count: int) -> np.ndarray:
 
 
 def cylinder_solid(kind: str, diameter_mm: float, length_mm: float, zone_size: float,
-                   lines: dict[str, tuple[float, float]] | None = None) -> Solid:
+                   lines: dict[str, tuple[float, float]] | None = None,
+                   borehole_diameter_mm: float = 0.0) -> Solid:
     """A faceted cylinder on the z axis from z = 0 to ``length`` (UCS, permeability,
-    Brazilian disc). Facets: a multiple of 4, so that the polygon has vertices at
-    +-x and +-y (the Brazilian loading lines)."""
+    Brazilian disc; with a borehole along the axis, the hollow cylinder of the lab HS
+    test). Facets: a multiple of 4, so that the polygon has vertices at +-x and +-y (the
+    Brazilian loading lines); the borehole's as in :func:`box_solid`."""
     r, length = 0.5 * diameter_mm * MM, length_mm * MM
     n = facet_count(r, zone_size, multiple=4)
     lo, hi = np.array([-r, -r, 0.0]), np.array([r, r, length])
     flat = (FlatSide("z-", 2, 0.0, 1), FlatSide("z+", 2, length, -1))
-    return Solid(kind, lo, hi, flat=flat, facets=_circle_facets(r, n, 0, n),
-                 section_area=regular_polygon_area(r, n), lines=dict(lines or {}))
+    hole = 0.5 * borehole_diameter_mm * MM
+    if hole >= 0.5 * r:
+        raise GeometryError("the borehole must be narrower than half the cylinder")
+    return Solid(kind, lo, hi, borehole_radius=hole,
+                 borehole_facets=facet_count(hole, zone_size) if hole > 0 else 0, flat=flat,
+                 facets=_circle_facets(r, n, 0, n), section_area=regular_polygon_area(r, n),
+                 lines=dict(lines or {}))
 
 
 def semi_disk_solid(diameter_mm: float, thickness_mm: float, notch_length_mm: float,
@@ -374,7 +382,8 @@ def specimen_solid(spec, zone_size: float) -> Solid:
     ``slab``: box with a borehole along z; ``penny``: the cut cube; ``rectangle``:
     the cylinder it is the section of (diameter = width, axis along z, length =
     height); ``disk``: Brazilian disc (axis along z, length = thickness);
-    ``semi_disk``: NSCB half disc (axis along z, base on y = 0).
+    ``semi_disk``: NSCB half disc (axis along z, base on y = 0); ``hollow_cylinder``:
+    the cylinder with a borehole along its axis (z).
     """
     shape = spec.shape
     if shape == "slab":
@@ -388,6 +397,9 @@ def specimen_solid(spec, zone_size: float) -> Solid:
         r = 0.5 * spec.diameter_mm * MM
         return cylinder_solid("disk", spec.diameter_mm, spec.thickness_mm, zone_size,
                               {"load_y-": (0.0, -r), "load_y+": (0.0, r)})
+    if shape == "hollow_cylinder":
+        return cylinder_solid("hollow_cylinder", spec.diameter_mm, spec.height_mm, zone_size,
+                              borehole_diameter_mm=spec.borehole_diameter_mm)
     if shape == "semi_disk":
         return semi_disk_solid(spec.diameter_mm, spec.thickness_mm, spec.notch_length_mm,
                                spec.notch_width_mm, spec.support_span_mm, zone_size)

@@ -113,17 +113,38 @@ class PennySpec(StrictModel):
         return self
 
 
+class HollowCylinderSpec(StrictModel):
+    """The laboratory hydraulic stimulation specimen (paper Sect. 2.3 and 5.2, Fig. 4), 3D
+    only: a cylinder with a central hole along its axis (z) through its whole height."""
+
+    shape: Literal["hollow_cylinder"] = Field("hollow_cylinder", description="selects this shape")
+    diameter_mm: float = Field(22.5, gt=0, description="outer diameter [mm]")
+    height_mm: float = Field(45.0, gt=0, description="height along the axis [mm]")
+    borehole_diameter_mm: float = Field(
+        3.0, gt=0, description="central hole [mm]; < half the diameter")
+
+    @model_validator(mode="after")
+    def _hole_fits(self) -> HollowCylinderSpec:
+        if self.borehole_diameter_mm >= 0.5 * self.diameter_mm:
+            raise ValueError(
+                f"borehole_diameter_mm: must be < half the diameter ({0.5 * self.diameter_mm:g}"
+                f" mm), got {self.borehole_diameter_mm:g}")
+        return self
+
+
 SpecimenShapeSpec = Annotated[
-    SlabSpec | DiskSpec | SemiDiskSpec | RectangleSpec | PennySpec, Field(discriminator="shape")
+    SlabSpec | DiskSpec | SemiDiskSpec | RectangleSpec | PennySpec | HollowCylinderSpec,
+    Field(discriminator="shape"),
 ]
 
 #: Shapes each dimension builds. In 3D a slab is a box with a borehole along z
 #: through its thickness (the paper's 100 mm cube is the slab 100 x 100 x 100);
 #: ``rectangle`` is the cylinder it is the section of (UCS and permeability:
 #: diameter = width, length = height), ``disk`` and ``semi_disk`` are the
-#: Brazilian and NSCB specimens with their axes along z; ``penny`` is 3D only.
+#: Brazilian and NSCB specimens with their axes along z; ``penny`` and
+#: ``hollow_cylinder`` are 3D only.
 SHAPES_2D = ("slab", "disk", "semi_disk", "rectangle")
-SHAPES_3D = ("slab", "penny", "rectangle", "disk", "semi_disk")
+SHAPES_3D = ("slab", "penny", "rectangle", "disk", "semi_disk", "hollow_cylinder")
 #: The paper does not state the slab's thickness; 3D slabs default to this (mm).
 SLAB_THICKNESS_3D_MM = 20.0
 

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from grainfrac.geometry.solids3d import BOREHOLE
+from grainfrac.geometry.solids3d import BOREHOLE, LATERAL
 
 if TYPE_CHECKING:  # loads are plain arrays; the mesher is needed only to build them
     from grainfrac.geometry.meshing3d import GrainMesh3D
@@ -98,8 +98,15 @@ def far_field_stress_forces3d(mesh: GrainMesh3D, sigma_x: float, sigma_y: float,
                               sigma_z: float) -> np.ndarray:
     """Nodal forces of the in-situ stresses (paper Table 6; compressive Pa) on a box's
     six faces: ``sigma_x`` on ``x-``/``x+``, ``sigma_y`` on ``y-``/``y+``, ``sigma_z``
-    on ``z-``/``z+``. The borehole wall is left free."""
+    on ``z-``/``z+``. A cylinder (no x and y faces) takes ``sigma_x = sigma_y`` as a
+    confining pressure on its lateral surface. The borehole wall is left free."""
     out = np.zeros((mesh.n_nodes, 3))
+    if "x-" not in mesh.surface_triangles and (sigma_x or sigma_y):
+        if sigma_x != sigma_y:
+            raise ValueError(f"a cylinder takes one lateral pressure: sigma_x ({sigma_x:g} Pa) "
+                             f"must equal sigma_y ({sigma_y:g} Pa)")
+        out += normal_pressure_forces3d(mesh, LATERAL, sigma_x)
+        sigma_x = sigma_y = 0.0
     for axis, s in zip("xyz", (sigma_x, sigma_y, sigma_z), strict=True):
         if s:
             for sign in "-+":

@@ -4,6 +4,7 @@ and output, and the checks across them (stage order, borehole, sides, sizes).
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any, Literal
 
@@ -12,7 +13,7 @@ from pydantic import Field, model_validator
 from grainfrac import materials
 from grainfrac.assembly import FissureSpec, GrainSpec, SpecimenConfig, with_3d_slab_thickness
 from grainfrac.errors import ConfigError
-from grainfrac.geometry.specimens import SlabSpec, SpecimenShapeSpec
+from grainfrac.geometry.specimens import HollowCylinderSpec, SlabSpec, SpecimenShapeSpec
 from grainfrac.io.config import StrictModel, validate
 from grainfrac.scenario.fluid import SPECIMEN_SIDES, FluidSpec
 from grainfrac.scenario.numerics import NumericsSpec
@@ -40,7 +41,8 @@ class Scenario(StrictModel):
         "the slab a box with the borehole along z through its thickness")
     rock: str | materials.RockRecipe = Field("strathbogie-granite", description="rock recipe")
     specimen: SpecimenShapeSpec = Field(
-        default_factory=SlabSpec, description="specimen: a slab or rectangle, chosen by `shape`")
+        default_factory=SlabSpec,
+        description="specimen: a slab, rectangle or hollow cylinder, chosen by `shape`")
     grains: GrainSpec = Field(default_factory=GrainSpec, description="grain size and mesh")
     fissures: FissureSpec = Field(default_factory=FissureSpec,
                                   description="pre-existing unbonded grain boundaries")
@@ -58,6 +60,7 @@ class Scenario(StrictModel):
     @classmethod
     def _check_stage_entries(cls, data: Any) -> Any:
         data = with_3d_slab_thickness(data)
+        data = _lateral_permeable_side(data)
         if isinstance(data, dict) and isinstance(data.get("stages"), list):
             # Every stage's problems at once, one line each.
             problems = [line for index, stage in enumerate(data["stages"])
@@ -79,8 +82,8 @@ class Scenario(StrictModel):
         shape = self.specimen.shape
         if shape not in _STRESSABLE_SHAPES:
             raise ValueError(
-                f"specimen.shape: a scenario needs a slab or rectangle (the in-situ stress acts "
-                f"on its left, right, top and bottom sides) (got {shape!r})"
+                f"specimen.shape: a scenario needs a slab, rectangle or hollow cylinder (the "
+                f"in-situ stress acts on its sides) (got {shape!r})"
             )
         sides = SPECIMEN_SIDES[shape]
         for side in self.fluid.permeable_sides:
@@ -96,10 +99,11 @@ class Scenario(StrictModel):
         for i, stage in enumerate(self.stages):
             if stage.kind not in BOREHOLE_STAGES:
                 continue
-            if not isinstance(spec, SlabSpec):
+            if not isinstance(spec, SlabSpec | HollowCylinderSpec):
                 raise ValueError(
                     f"stages.{i}.kind: {stage.kind} needs a specimen with a borehole (a slab "
-                    f"with borehole_diameter_mm > 0); the specimen is a {spec.shape}"
+                    f"with borehole_diameter_mm > 0 or a hollow cylinder); the specimen is a "
+                    f"{spec.shape}"
                 )
             if spec.borehole_diameter_mm <= 0:
                 raise ValueError(
@@ -113,6 +117,12 @@ class Scenario(StrictModel):
         if stress.case is None and stress.sigma_z_MPa is None:
             raise ValueError("stress.sigma_z_MPa: required in 3D without a case (the stress "
                              "along the borehole axis; paper Table 6: 1 MPa in every case)")
+        if self.specimen.shape == "hollow_cylinder" and not math.isclose(
+                stress.sigma_x_MPa, stress.sigma_y_MPa, rel_tol=1e-12, abs_tol=1e-12):
+            raise ValueError(
+                f"stress.sigma_y_MPa: a hollow cylinder's lateral surface takes one confining "
+                f"pressure, so sigma_y_MPa must equal sigma_x_MPa ({stress.sigma_x_MPa:g}), "
+                f"got {stress.sigma_y_MPa:g}")
 
     def _check_order(self) -> None:
         scda_at: int | None = None
@@ -190,6 +200,18 @@ class Scenario(StrictModel):
                                               "residual_aperture_m": props.residual_aperture})
         return validate(Scenario, {**dict(self), "rock": recipe, "stages": stages,
                                    "fluid": fluid})
+
+
+def _lateral_permeable_side(data: Any) -> Any:
+    """A hollow cylinder's fluid boundary defaults to its lateral surface (a slab's to its
+    four sides); a list given in the file is kept as it is."""
+    if isinstance(data, dict):
+        spec = data.get("specimen")
+        fluid = data.get("fluid", {})
+        if isinstance(spec, dict) and spec.get("shape") == "hollow_cylinder" \
+                and isinstance(fluid, dict) and "permeable_sides" not in fluid:
+            data = {**data, "fluid": {**fluid, "permeable_sides": ["lateral"]}}
+    return data
 
 
 def _scda_material(stage: ScdaStage, index: int, base_dir: Path | None) -> materials.ScdaRecipe:

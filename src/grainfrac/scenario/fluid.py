@@ -24,6 +24,7 @@ SPECIMEN_SIDES: dict[str, tuple[str, ...]] = {
     "rectangle": ("left", "right", "top", "bottom"),
     "disk": ("perimeter",),
     "semi_disk": ("arc", "base"),
+    "hollow_cylinder": ("lateral",),
 }
 
 # A 3D slab's sides by the 2D names (the slab plane is x-y; z+ and z- are its top and

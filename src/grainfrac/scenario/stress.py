@@ -22,8 +22,9 @@ __all__ = [
 StressCase = Literal["case1", "case2", "case3", "case4"]
 
 
-# Shapes the far-field stress of an ``equilibrate`` stage can act on (left/right/top/bottom).
-_STRESSABLE_SHAPES = ("slab", "rectangle")
+# Shapes the far-field stress of an ``equilibrate`` stage can act on (left/right/top/bottom;
+# a hollow cylinder's lateral surface takes sigma_x = sigma_y as a confining pressure).
+_STRESSABLE_SHAPES = ("slab", "rectangle", "hollow_cylinder")
 
 
 class InSituStress(StrictModel):

@@ -15,6 +15,7 @@ from grainfrac.io.config import StrictModel
 __all__ = [
     "GROUPED_QUANTITIES",
     "SCALAR_QUANTITIES",
+    "SCALAR_QUANTITIES_3D",
     "AxisSpec",
     "PointSpec",
     "SweepConfig",
@@ -28,6 +29,11 @@ SCALAR_QUANTITIES = (
     "n_contacts", "n_cracks", "n_tensile_cracks", "n_shear_cracks", "tensile_shear_ratio",
     "n_radial_fractures", "fracture_extent_mm", "tortuosity", "energy_tensile_J",
     "energy_shear_J", "energy_friction_J", "in_situ_unbalanced_force_ratio",
+)
+# summary.json keys of 3D runs only: valid quantities, tabled when a run has them.
+SCALAR_QUANTITIES_3D = (
+    "n_radial_fractures_top", "n_radial_fractures_mid", "tortuosity_top", "fracture_area_m2",
+    "tensile_area_m2", "shear_area_m2",
 )
 # Dict-valued summary keys whose numeric entries become "<key>.<entry>" quantities.
 GROUPED_QUANTITIES = ("contact_fraction_total", "contact_fraction_failed", "energy_balance_J")
@@ -78,7 +84,7 @@ class PointSpec(StrictModel):
 
 
 def _known_quantity(name: str) -> bool:
-    if name in SCALAR_QUANTITIES:
+    if name in SCALAR_QUANTITIES or name in SCALAR_QUANTITIES_3D:
         return True
     group, _, entry = name.partition(".")
     return group in GROUPED_QUANTITIES and bool(entry)
@@ -143,7 +149,7 @@ class SweepConfig(StrictModel):
             if not _known_quantity(name):
                 raise ValueError(
                     f"quantities.{i}: unknown quantity {name!r}; known: "
-                    + ", ".join(SCALAR_QUANTITIES)
+                    + ", ".join(SCALAR_QUANTITIES + SCALAR_QUANTITIES_3D)
                     + ", or <group>.<entry> of " + ", ".join(GROUPED_QUANTITIES))
         return self
 
