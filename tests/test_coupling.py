@@ -23,7 +23,7 @@ from grainfrac.io.config import validate
 from grainfrac.loading.insitu import STRESS_CASES, initialise_in_situ
 from grainfrac.physics import coupled as coupled_module
 from grainfrac.physics import flow
-from grainfrac.physics.coupled import HydroMechanicalSolver, pressure_jump_limit
+from grainfrac.physics.coupled import HydroMechanicalSolver, pressure_jump_limit, whole_steps
 from grainfrac.physics.model import build_mechanical_model
 from grainfrac.physics.solver import MechanicsSolver, PoreSprings
 from grainfrac.runner import demo_scenarios
@@ -171,7 +171,7 @@ def test_a_void_squeezed_during_the_step_halves_it(coupled, monkeypatch):
     calls = _spoil_content(monkeypatch, lambda s: interior, 5.0 * MPA, every_attempt=False)
     rejected0 = coupled.rejected_steps
     coupled.advance(2e-5, 1e-6)
-    assert calls == [2e-5, 1e-5, 1e-5]
+    _assert_halved(calls, coupled)
     assert coupled.rejected_steps == rejected0 + 1
 
 
@@ -186,14 +186,32 @@ def test_a_jump_in_the_well_is_never_accepted_as_unresolved(coupled, monkeypatch
         interior = int(np.flatnonzero(~coupled.network.fixed)[0])
         calls = _spoil_content(monkeypatch, lambda s: interior, 5.0 * MPA, every_attempt=True)
         coupled.advance(2e-5, 1e-6)
-        assert calls == [2e-5, 1e-5, 1e-5]
+        _assert_halved(calls, coupled)
         calls = _spoil_content(monkeypatch, lambda s: s.network.well_unknown, 5.0 * MPA,
                                every_attempt=True)
         coupled.advance(2e-5, 1e-6)
-        assert calls == [2e-5, 1e-5, 5e-6, 5e-6, 1e-5, 5e-6, 5e-6]
+        # Halved down to the last level: 2e-5, its halves, and their halves.
+        assert calls == _halvings(2e-5, coupled.mechanics.model.dt, levels=2)
     finally:
         coupled.mechanics.restore_state(mech_saved)
         coupled.state = fluid_saved
+
+
+def _halvings(dt, dt_mech, levels):
+    """The steps tried when every attempt down to ``levels`` halvings is rejected: ``dt``,
+    then its first half and the whole mechanical steps left, each tried the same way."""
+    tried = [pytest.approx(dt, rel=1e-12)]
+    steps = whole_steps(dt, dt_mech)
+    if levels == 0 or steps == 1:
+        return tried
+    tried += _halvings(0.5 * dt, dt_mech, levels - 1)
+    left = steps - whole_steps(0.5 * dt, dt_mech)
+    return tried + _halvings(left * dt_mech, dt_mech, levels - 1) if left > 0 else tried
+
+
+def _assert_halved(calls, coupled):
+    """The 2e-5 s step, then its halves: 1e-5 s and the whole mechanical steps left."""
+    assert calls == _halvings(2e-5, coupled.mechanics.model.dt, levels=1)
 
 
 def test_rejected_step_is_undone_and_halved(coupled, monkeypatch):
@@ -211,11 +229,11 @@ def test_rejected_step_is_undone_and_halved(coupled, monkeypatch):
     t0, rejected0 = coupled.mechanics.time, coupled.rejected_steps
     coupled.advance(2e-5, 1e-6)
     print(f"\nsub-steps taken: {[f'{dt:.1e}' for dt in calls]}")
-    assert calls == [2e-5, 1e-5, 1e-5]
+    _assert_halved(calls, coupled)
     assert coupled.rejected_steps == rejected0 + 1
-    # Each half is rounded up to whole mechanical steps, and the time is what they make.
+    # The halves together advance the whole step's mechanical steps, no more.
     dt_mech = coupled.mechanics.model.dt
-    assert coupled.mechanics.time == pytest.approx(t0 + 2 * math.ceil(1e-5 / dt_mech) * dt_mech,
+    assert coupled.mechanics.time == pytest.approx(t0 + math.ceil(2e-5 / dt_mech) * dt_mech,
                                                    rel=1e-12)
     assert np.all(coupled.state.content[~coupled.network.fixed] >= 0.0)
 

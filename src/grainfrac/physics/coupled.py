@@ -423,15 +423,24 @@ class HydroMechanicalSolver:
             if depth >= MAX_HALVINGS:
                 raise
             accepted = False
-        if accepted or depth >= MAX_HALVINGS:
+        steps = whole_steps(dt, self.mechanics.model.dt)
+        # One mechanical step cannot be halved: done again it would be the same step.
+        if accepted or depth >= MAX_HALVINGS or steps == 1:
             return
         self.mechanics.restore_state(mech_saved)
         self._pores = None
         self.state = fluid_saved
         self._apply_pressure()
         self.rejected_steps += 1
-        for _ in range(2):
-            self._advance_controlled(0.5 * dt, injection_rate, depth + 1, jump)
+        # The halves together advance the step's own whole mechanical steps: each half
+        # rounded up on its own overshot the stage's end by a step per halving (3
+        # steps measured where a run's last step was halved twice).
+        start = self.mechanics.step_count
+        self._advance_controlled(0.5 * dt, injection_rate, depth + 1, jump)
+        left = steps - (self.mechanics.step_count - start)
+        if left > 0:
+            self._advance_controlled(left * self.mechanics.model.dt, injection_rate,
+                                     depth + 1, jump)
 
     def _step_check(self, before: np.ndarray) -> tuple[float, float, bool]:
         """The largest pressure change of the step just taken over its
@@ -479,7 +488,7 @@ class HydroMechanicalSolver:
         # Injecting for ``dt`` itself fell short: a fluid step below the mechanical
         # one still advanced a whole mechanical step, and the default 0.01 ms is
         # 71.7 steps of the default slab (1.394e-7 s each), run as 72 (issue 42).
-        n_steps = max(1, math.ceil(dt / m.model.dt))
+        n_steps = whole_steps(dt, m.model.dt)
         dt = n_steps * m.model.dt
         pores = self._current_pores()
         flow.implicit_step(self.network, self.state, pores.aperture, dt, self.fluid,
@@ -593,6 +602,13 @@ def penny_crack_length(diameter):
     disc of its area, which overstates the opening of an elongated one.
     """
     return 16.0 / (3.0 * math.pi**2) * np.asarray(diameter)
+
+
+def whole_steps(dt: float, step: float) -> int:
+    """Mechanical steps of ``step`` seconds that a fluid step of ``dt`` advances: ``dt``
+    rounded up, at least one; a ``dt`` within 1e-9 of a step of a whole number (a
+    remainder computed from step counts) is that number, not one more."""
+    return max(1, math.ceil(dt / step - 1e-9))
 
 
 def pressure_jump_limit(pressure):
