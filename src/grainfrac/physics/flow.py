@@ -649,8 +649,8 @@ def _factorised(a: sp.csc_matrix):
     """SuperLU factors of a pressure system, which is symmetric: ordered by minimum degree
     on A + A^T with diagonal pivots. On a 3D slab's grain-face network (12,473 unknowns)
     L + U hold 1.28 million entries against 2.48 million with SuperLU's default column
-    ordering (COLAMD); on a 64,000-node 3D grid Laplacian 44 against 96 million, and the
-    factorisation took 16 s against 39 s."""
+    ordering (COLAMD); the 100 mm cube's first injection step (61,295 unknowns, the whole
+    network conducting) took 6.6 s against 16.5 s, to the same well pressure."""
     return splu(a, permc_spec="MMD_AT_PLUS_A", options={"SymmetricMode": True})
 
 
