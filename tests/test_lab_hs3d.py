@@ -103,7 +103,7 @@ def test_hollow_cylinder_scenario_defaults_and_refusals():
 def test_small_hollow_cylinder_breaks_down_from_its_hole(tmp_path):
     """Unconfined, 5.12 MPa axial, 5 ml/min: the well pressure rises at the rate of the
     hole's storage, peaks and falls while a fracture runs from the hole to the lateral
-    surface (seed 1: peak 7.9 MPa, 52 cracks, all tensile, 30 s)."""
+    surface (seed 1: peak 7.9 MPa, 49 cracks, all tensile, 30 s)."""
     scenario = _scenario()
     summary = run_scenario(scenario, scenario.recipe(), tmp_path / "run")
     with open(tmp_path / "run" / "history.csv") as fh:
