@@ -60,7 +60,7 @@ class Scenario(StrictModel):
     @classmethod
     def _check_stage_entries(cls, data: Any) -> Any:
         data = with_3d_slab_thickness(data)
-        data = _lateral_permeable_side(data)
+        data = _shape_permeable_sides(data)
         if isinstance(data, dict) and isinstance(data.get("stages"), list):
             # Every stage's problems at once, one line each.
             problems = [line for index, stage in enumerate(data["stages"])
@@ -202,15 +202,17 @@ class Scenario(StrictModel):
                                    "fluid": fluid})
 
 
-def _lateral_permeable_side(data: Any) -> Any:
-    """A hollow cylinder's fluid boundary defaults to its lateral surface (a slab's to its
-    four sides); a list given in the file is kept as it is."""
+def _shape_permeable_sides(data: Any) -> Any:
+    """The fluid boundary defaults to every named side of the specimen's shape
+    (:data:`SPECIMEN_SIDES`: a slab's four sides, a hollow cylinder's lateral surface); a
+    list given in the file is kept as it is."""
     if isinstance(data, dict):
-        spec = data.get("specimen")
+        spec = data.get("specimen", {})
         fluid = data.get("fluid", {})
-        if isinstance(spec, dict) and spec.get("shape") == "hollow_cylinder" \
-                and isinstance(fluid, dict) and "permeable_sides" not in fluid:
-            data = {**data, "fluid": {**fluid, "permeable_sides": ["lateral"]}}
+        shape = spec.get("shape", "slab") if isinstance(spec, dict) else None
+        if shape in SPECIMEN_SIDES and isinstance(fluid, dict) \
+                and "permeable_sides" not in fluid:
+            data = {**data, "fluid": {**fluid, "permeable_sides": list(SPECIMEN_SIDES[shape])}}
     return data
 
 
