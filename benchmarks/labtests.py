@@ -1,7 +1,7 @@
 """Wall time of each virtual lab test and of a calibration (issue 6).
 
     python benchmarks/labtests.py                      # the four tests, Table 2, seed 0
-    python benchmarks/labtests.py --dim 3              # UCS, BTS, NSCB on the 3D specimens
+    python benchmarks/labtests.py --dim 3              # the four tests on the 3D specimens
     python benchmarks/labtests.py --rock examples/rocks/strathbogie-granite-breakable.toml
     python benchmarks/labtests.py --calibrate          # also the example calibration (minutes)
     python benchmarks/labtests.py --calibrate examples/calibration/strathbogie-2d-breakable.toml
@@ -31,16 +31,13 @@ def main() -> None:
                         help="rock preset or recipe TOML for the four tests")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--dim", type=int, choices=(2, 3), default=2,
-                        help="2: plane-strain sections; 3: the specimens as solids (no "
-                             "permeability test)")
+                        help="2: plane-strain sections; 3: the specimens as solids")
     parser.add_argument("--calibrate", nargs="?", const=EXAMPLE, type=Path, default=None,
                         metavar="TARGETS", help="also time this calibration")
     args = parser.parse_args()
 
     measure(lab_test_config("bts", seed=0, loading={"max_strain": 1e-4}))  # compile kernels
     for test, key in KEYS.items():
-        if args.dim == 3 and test == "permeability":
-            continue
         start = time.perf_counter()
         result = measure(lab_test_config(test, seed=args.seed, rock=args.rock,
                                          dimension=args.dim))

@@ -504,3 +504,24 @@ def test_a_recipe_name_cannot_write_outside_out(monkeypatch, tmp_path, name):
     assert paths["recipe"].parent == out and paths["recipe"].suffix == ".toml"
     assert not Path("/tmp/grainfrac-escape").exists()
     assert materials.load_recipe(paths["recipe"]).name == name  # the name itself is kept
+
+
+def test_a_3d_bench_runs_the_specimens_as_solids():
+    """``dimension = 3`` reaches every lab test of the bench (here the cheap one: the
+    constant-head test on the 22.5 x 45 mm cylinder, 10 s)."""
+    config = validate(CalibrationConfig, {"dimension": 3})
+    with LabBench([0], config.grains, workers=1, dimension=config.dimension) as bench:
+        means, runs = bench.measure(BASE, ("permeability",))
+    assert runs[0]["dimension"] == 3 and runs[0]["test"] == "permeability"
+    assert 3e-20 < means["permeability_m2"] < 3e-19  # lab 1e-19 m2 at a0 = 0.2 um
+
+
+def test_a_3d_calibration_of_breakable_grains_fails_before_any_test(monkeypatch):
+    monkeypatch.setattr(calibration.bench, "_lab_value", lambda job: pytest.fail("ran a test"))
+    breakable = materials.load_recipe(
+        Path(__file__).parents[1] / "examples" / "rocks" / "strathbogie-granite-breakable.toml")
+    config = validate(CalibrationConfig, {"dimension": 3})
+    with pytest.raises(ConfigError, match="rock.*2D only"):
+        calibrate(config, breakable)
+    with pytest.raises(ConfigError, match="dimension"):
+        validate(CalibrationConfig, {"dimension": 1})

@@ -27,13 +27,14 @@ __all__ = [
 ]
 
 
-def _lab_value(job: tuple[str, int, materials.RockRecipe, GrainSpec, FissureSpec]
+def _lab_value(job: tuple[str, int, materials.RockRecipe, GrainSpec, FissureSpec, int]
                ) -> dict[str, Any]:
     """One lab test (worker process): returns its summary."""
     from grainfrac.labtests.run import measure
 
-    test, seed, recipe, grains, fissures = job
-    config = LabTestConfig(test=test, seed=seed, rock=recipe, grains=grains, fissures=fissures)
+    test, seed, recipe, grains, fissures, dimension = job
+    config = LabTestConfig(test=test, seed=seed, rock=recipe, grains=grains, fissures=fissures,
+                           dimension=dimension)
     return measure(config, recipe=recipe)["summary"]
 
 
@@ -49,13 +50,15 @@ class LabBench:
 
     One process pool serves every evaluation (workers keep their compiled
     kernels); ``close()`` it, or use the bench as a context manager.
+    ``dimension`` 3 runs the Table 3 specimens as solids.
     """
 
     def __init__(self, seeds: list[int], grains: GrainSpec, workers: int | None = None,
-                 fissures: FissureSpec | None = None):
+                 fissures: FissureSpec | None = None, dimension: int = 2):
         self.seeds = list(seeds)
         self.grains = grains
         self.fissures = fissures or FissureSpec()
+        self.dimension = dimension
         self.workers = workers or os.cpu_count() or 1
         self._pool: ProcessPoolExecutor | None = None
 
@@ -76,7 +79,8 @@ class LabBench:
         """Mean of each reported quantity over the seeds (the bench's unless
         ``seeds`` is given), and every test's summary."""
         seeds = self.seeds if seeds is None else list(seeds)
-        jobs = [(t, s, recipe, self.grains, self.fissures) for t in tests for s in seeds]
+        jobs = [(t, s, recipe, self.grains, self.fissures, self.dimension)
+                for t in tests for s in seeds]
         if self.workers > 1 and len(jobs) > 1:
             if self._pool is None:
                 self._pool = ProcessPoolExecutor(max_workers=self.workers,

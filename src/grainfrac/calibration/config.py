@@ -90,6 +90,9 @@ class CalibrationConfig(StrictModel):
                     "(none by default); they must differ from seeds")
     grains: GrainSpec = Field(default_factory=lambda: GrainSpec(**LAB_GRAINS),
                               description="grain size and mesh of the lab specimens")
+    dimension: Literal[2, 3] = Field(
+        2, description="2: plane-strain sections of the lab specimens; 3: the Table 3 "
+                       "specimens as solids (minutes per test and realisation)")
     tolerance: float = Field(0.02, gt=0, lt=0.5,
                              description="stop when every calibrated mean is this close")
     max_evaluations: int = Field(

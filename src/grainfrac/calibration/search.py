@@ -64,7 +64,11 @@ def calibrate(config: CalibrationConfig, recipe: materials.RockRecipe, *,
     if grain_factors and recipe.intragranular is None:
         raise ConfigError(f"factors.{grain_factors[0]}",
                           "needs breakable grains: the rock recipe has no intragranular section")
-    with LabBench(config.seeds, config.grains, config.workers) as bench:
+    if config.dimension == 3 and recipe.intragranular is not None:
+        raise ConfigError("rock", "breakable grains (intragranular) are 2D only for now: "
+                                  "calibrate in 3D with intact grains")
+    with LabBench(config.seeds, config.grains, config.workers,
+                  dimension=config.dimension) as bench:
         return _calibrate(config, recipe, bench, say, on_evaluation, replay or [])
 
 

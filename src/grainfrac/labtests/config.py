@@ -161,14 +161,6 @@ class LabTestConfig(StrictModel):
         return self
 
     @model_validator(mode="after")
-    def _permeability_in_2d(self) -> LabTestConfig:
-        if self.dimension == 3 and self.test == "permeability":
-            raise ValueError("dimension: the permeability test runs in 2D only (got 3); "
-                             "the 3D face network's permeability is `grainfrac verify "
-                             "cubic-law3d`")
-        return self
-
-    @model_validator(mode="after")
     def _no_clear_radius(self) -> LabTestConfig:
         if self.fissures.clear_radius_mm > 0:
             raise ValueError("fissures.clear_radius_mm: must be 0, a lab specimen has no "

@@ -77,20 +77,31 @@ def measure(config: LabTestConfig, *, recipe: materials.RockRecipe | None = None
 
 
 def _permeability(config: LabTestConfig, assembly: GrainAssembly) -> dict[str, Any]:
+    """The constant-head test (paper Eq. 8): inlet on top, outlet at the bottom
+    (2D: the section's top and bottom; 3D: the cylinder's ends, z+ and z-)."""
     from dataclasses import replace
 
     from grainfrac.physics import flow
-    from grainfrac.verification.hydraulic import measure_permeability
 
     spec = config.permeability
     a0 = spec.initial_aperture_m or assembly.recipe.hydraulic.initial_aperture_m
     fluid = replace(flow.FluidProperties(), viscosity=spec.viscosity_Pa_s)
-    result = measure_permeability(assembly.mesh, a0, fluid=fluid,
-                                  pressure_in=spec.pressure_in_MPa * MPA,
-                                  pressure_out=spec.pressure_out_MPa * MPA,
-                                  sealed=assembly.contact_intragranular)
+    heads = {"pressure_in": spec.pressure_in_MPa * MPA, "pressure_out": spec.pressure_out_MPa * MPA}
+    if assembly.dimension == 3:
+        from grainfrac.verification.hydraulic3d import measure_permeability3d
+
+        result = measure_permeability3d(assembly.mesh, a0, fluid=fluid, inlet="z+",
+                                        outlet="z-", **heads)
+        result["height_m"] = result["length_m"]
+        extra = ("linear_field_m2",)
+    else:
+        from grainfrac.verification.hydraulic import measure_permeability
+
+        result = measure_permeability(assembly.mesh, a0, fluid=fluid,
+                                      sealed=assembly.contact_intragranular, **heads)
+        extra = ("mean_flow_per_width_m2_s", "steps")
     keys = ("permeability_m2", "initial_aperture_m", "flow_rate_m3_s", "outflow_m3_s",
-            "mean_flow_per_width_m2_s", "area_m2", "height_m", "pressure_drop_Pa", "steps")
+            "area_m2", "height_m", "pressure_drop_Pa") + extra
     return {k: result[k] for k in keys}
 
 

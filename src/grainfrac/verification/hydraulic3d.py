@@ -314,48 +314,62 @@ def permeability_box(seed: int = 0, *,
     return build_assembly(config, config.recipe()).mesh
 
 
-def linear_field_permeability(mesh: GrainMesh3D, initial_aperture: float) -> float:
-    """Permeability along x (m2) of the grain faces under the linear pressure field.
+def linear_field_permeability(mesh: GrainMesh3D, initial_aperture: float,
+                              axis: int = 0) -> float:
+    """Permeability along ``axis`` (m2) of the grain faces under the linear pressure field.
 
     Every grain face at ``initial_aperture`` carries the cubic-law flux of the
     applied gradient projected onto its plane: ``k_lin = a^3 / 12 * sum_f A_f
-    (1 - n_x^2) / V`` (Snow / Oda), from the grain complex's own polygons, not
-    the mesh.
+    (1 - n_axis^2) / V`` (Snow / Oda), from the grain complex's own polygons and
+    the solid's volume ``V``, not the mesh.
     """
     cx = mesh.grains
     faces = cx.interface_faces()
     area = cx.face_areas()[faces]
-    nx = cx.face_normal[faces, 0]
-    volume = float(np.prod(cx.solid.extent))
-    return initial_aperture**3 / 12.0 * float(np.sum(area * (1.0 - nx**2))) / volume
+    n_axis = cx.face_normal[faces, axis]
+    return (initial_aperture**3 / 12.0 * float(np.sum(area * (1.0 - n_axis**2)))
+            / cx.solid.volume)
 
 
 def measure_permeability3d(mesh: GrainMesh3D, initial_aperture: float = TABLE4_APERTURE_M, *,
                            fluid: flow.FluidProperties | None = None,
                            pressure_in: float = TABLE4_PRESSURE_IN,
-                           pressure_out: float = TABLE4_PRESSURE_OUT) -> dict:
-    """Constant-head test on a 3D box: ``x-`` at ``pressure_in``, ``x+`` at ``pressure_out``.
+                           pressure_out: float = TABLE4_PRESSURE_OUT,
+                           inlet: str = "x-", outlet: str = "x+") -> dict:
+    """Constant-head test (paper Eq. 8) on a 3D prism: ``inlet`` at ``pressure_in``,
+    ``outlet`` at ``pressure_out``.
 
-    Every sub-contact at ``initial_aperture``, the other sides sealed, steady
-    state by :func:`steady_state`. Returns the inflow at ``x-``
-    (``flow_rate_m3_s``), the outflow at ``x+``, ``k = Q mu L / (A dP)``
-    (``permeability_m2``, ``L`` the x extent, ``A`` the y-z section) and the
+    ``inlet`` and ``outlet`` are the two flat end sides of one axis (``x-``/``x+``
+    of the permeability box, ``z+``/``z-`` of the lab cylinder). Every sub-contact
+    at ``initial_aperture``, the other sides sealed, steady state by
+    :func:`steady_state`. Returns the inflow at the inlet (``flow_rate_m3_s``),
+    the outflow at the outlet, ``k = Q mu L / (A dP)`` (``permeability_m2``, ``L``
+    the length between the ends, ``A = V / L`` the solid's section) and the
     linear-field estimate (``linear_field_m2``).
     """
     fluid = fluid or flow.FluidProperties()
+    solid = mesh.grains.solid
+    ends = {f.name: f for f in solid.flat_sides}
+    for role, name in (("inlet", inlet), ("outlet", outlet)):
+        if name not in ends:
+            raise ValueError(f"{role}: {name!r} is not a flat side of the {solid.kind} "
+                             f"(flat sides: {', '.join(ends)})")
+    axis = ends[inlet].axis
+    if ends[outlet].axis != axis or inlet == outlet:
+        raise ValueError(f"outlet: must be the side opposite {inlet!r} (got {outlet!r})")
     network = flow.build_flow_network(
-        mesh, permeable_sides={"x-": pressure_in, "x+": pressure_out}, well=False)
+        mesh, permeable_sides={inlet: pressure_in, outlet: pressure_out}, well=False)
     aperture = np.full(mesh.n_contacts, initial_aperture)
     state = steady_state(network, aperture, fluid)
-    q_in = side_inflow(network, state.pressure, aperture, fluid, "x-")
-    q_out = -side_inflow(network, state.pressure, aperture, fluid, "x+")
-    extent = mesh.grains.solid.extent
-    length, area = float(extent[0]), float(extent[1] * extent[2])
+    q_in = side_inflow(network, state.pressure, aperture, fluid, inlet)
+    q_out = -side_inflow(network, state.pressure, aperture, fluid, outlet)
+    length = float(solid.extent[axis])
+    area = solid.volume / length
     head = abs(pressure_in - pressure_out)
     return {
         "initial_aperture_m": initial_aperture,
         "permeability_m2": q_in * fluid.viscosity * length / (area * head),
-        "linear_field_m2": linear_field_permeability(mesh, initial_aperture),
+        "linear_field_m2": linear_field_permeability(mesh, initial_aperture, axis),
         "flow_rate_m3_s": q_in,
         "outflow_m3_s": q_out,
         "area_m2": area,
