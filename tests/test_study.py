@@ -254,3 +254,57 @@ def test_cli_study_paper_lab_smoke(tmp_path):
     assert ("no 95 % CI" in claims[0]["reason"]) if bd else ("null" in claims[0]["reason"])
     assert "lab-hs" in result.output and "undetermined" in result.output
     assert (out / "report.html").stat().st_size > 10_000
+
+
+def test_the_3d_studies_plan_on_the_3d_examples(monkeypatch):
+    """``--dim 3``: SCDA Cases 1-4 and the hybrid on the 50 x 50 x 10 mm slab, the lab HS
+    test on the hollow cylinder; a family name selects the 3D study."""
+    from grainfrac.studies.paper import STUDY_NAMES_3D
+
+    monkeypatch.setattr(DaskSession, "_connect", lambda self: pytest.fail("cluster started"))
+    planned = {s.name: p for s, p in plan_studies(select(dimensions=(3,)), 3, None)}
+    assert tuple(planned) == STUDY_NAMES_3D
+    for plan in planned.values():
+        for point in plan.points:
+            assert [r.seed for r in point.runs] == [0, 1, 2]
+            assert all(r.scenario["dimension"] == 3 for r in point.runs)
+    scda = [p.runs[0].scenario for p in planned["scda-confinement-3d"].points]
+    assert [s["stress"]["case"] for s in scda] == ["case1", "case2", "case3", "case4"]
+    for s in scda + [p.runs[0].scenario for p in planned["hybrid-3d"].points]:
+        spec = s["specimen"]
+        assert (spec["width_mm"], spec["height_mm"], spec["thickness_mm"]) == (50, 50, 10)
+    hybrid = {p.id: [st["kind"] for st in p.runs[0].scenario["stages"]]
+              for p in planned["hybrid-3d"].points}
+    assert hybrid == {"hybrid-f0": ["equilibrate", "scda", "drill_out", "inject"],
+                      "hs-only-f0": ["equilibrate", "inject"]}
+    assert planned["lab-hs-3d"].points[0].runs[0].scenario["specimen"]["shape"] == \
+        "hollow_cylinder"
+    assert [s.name for s in select(["hybrid"], (2, 3))] == ["hybrid", "hybrid-3d"]
+    with pytest.raises(ConfigError, match="dim.0: must be 2 or 3"):
+        select(dimensions=(4,))
+    with pytest.raises(ConfigError, match="only.0: unknown study 'grain-size'"):
+        select(["grain-size"], (3,))
+
+
+def test_the_claims_table_puts_2d_and_3d_side_by_side():
+    from grainfrac.studies.paper import paper_studies, paper_studies_3d
+    from grainfrac.studies.report import StudyOutcome, _summary_table
+    from grainfrac.studies.claims import Verdict
+
+    two = next(s for s in paper_studies() if s.name == "hybrid")
+    three = next(s for s in paper_studies_3d() if s.name == "hybrid-3d")
+    outcomes = [StudyOutcome(s, None, [Verdict(c, verdict, f"{s.dimension}D estimate", "")
+                                       for c in s.claims])
+                for s, verdict in ((two, "holds"), (three, "inconclusive"))]
+    header, rows, verdicts = _summary_table(outcomes)
+    assert header == ["study", "claim", "paper", "ours (2D)", "verdict (2D)", "ours (3D)",
+                      "verdict (3D)"] and verdicts == {4, 6}
+    by_id = {c.id: row for s in (two, three) for c in s.claims
+             for row in rows if row[1] == c.text}
+    assert by_id["hybrid-breakdown-f0"][3:] == ["2D estimate", "holds", "3D estimate",
+                                                "inconclusive"]
+    assert by_id["hybrid-breakdown-f15"][5:] == ["not run", "not run"]
+    assert by_id["hybrid-fractures-mid-f0"][3:5] == ["not run", "not run"]
+    assert all(row[0] == "hybrid" for row in rows)
+    header, _, verdicts = _summary_table(outcomes[:1])
+    assert header[3:] == ["ours", "verdict"] and verdicts == {4}

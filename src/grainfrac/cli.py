@@ -534,7 +534,12 @@ def study(
         "--realisations", min=1, help="Grain realisations per point (seeds 0..N-1).")] = 10,
     only: Annotated[list[str] | None, typer.Option(
         "--only", help="Run only this study (repeatable): scda-confinement, hs-confinement, "
-        "grain-size, fissures, injection-rate, hybrid, lab-hs.")] = None,
+        "grain-size, fissures, injection-rate, hybrid, lab-hs (in 3D: scda-confinement, "
+        "hybrid, lab-hs).")] = None,
+    dim: Annotated[list[int] | None, typer.Option(
+        "--dim", help="2 (plane-strain studies, default) or 3 (the paper's 3D model on "
+        "examples/3d); repeat for both: the report puts their verdicts side by side.")
+    ] = None,
     examples: Annotated[Path | None, typer.Option(
         "--examples", help="Directory of the example scenarios (default: the checkout's "
         "examples/).")] = None,
@@ -557,6 +562,7 @@ def study(
     try:
         with sweep_progress(console) as show:
             done = run_paper_study(out, realisations=realisations, only=only,
+                                   dimensions=tuple(dim or (2,)),
                                    examples=examples, scheduler=scheduler, n_workers=workers,
                                    progress=show)
     except (GrainfracError, OSError) as exc:

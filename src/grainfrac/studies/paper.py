@@ -17,6 +17,15 @@ hybrid             hybrid SCDA-HS vs HS-only at 90 ml/min, Case 2, 0 % and 15 %
 lab-hs             the unconfined laboratory HS test at 5 ml/min (Sect. 5.2, Fig. 11)
 =================  ===============================================================
 
+and in 3D (``grainfrac study paper --dim 3``; the scenarios of ``examples/3d``), the
+same claims where the paper's 3D model makes them:
+
+===================  ==============================================================
+scda-confinement-3d  SCDA charging, Cases 1-4, on a 50 x 50 x 10 mm slab
+hybrid-3d            hybrid vs HS-only at 90 ml/min, Case 2, on the same slab
+lab-hs-3d            the laboratory HS test on the hollow cylinder (Sect. 5.2)
+===================  ==============================================================
+
 Every run writes a ParaView snapshot every 10 ms instead of the examples'
 1 ms (a study makes hundreds of runs); nothing else about the examples changes.
 """
@@ -79,6 +88,13 @@ class Study:
     figure_quantities: tuple[str, ...]
     claims: tuple[Claim, ...] = ()
     notes: tuple[str, ...] = field(default_factory=tuple)
+    dimension: int = 2
+
+    @property
+    def family(self) -> str:
+        """The study's name without its dimension: a 3D study and its 2D counterpart
+        share it (and the ids of the claims they both test)."""
+        return self.name.removesuffix("-3d")
 
     def plan(self, realisations: int, examples: Path) -> SweepPlan:
         """The sweep with ``realisations`` per point, scenario files under ``examples``."""
@@ -254,7 +270,70 @@ def paper_studies() -> list[Study]:
     return [scda, hs, grains, fissures, rate, hybrid, lab]
 
 
+# The 3D slab of the 3D studies: the 100 x 100 x 20 mm slab at an eighth of its volume.
+# SCDA charging takes tens of ms of simulated time to its 45 MPa peak; on the full slab
+# that is tens of minutes per run on one core, on this one a few minutes.
+SLAB_3D_SET: dict[str, Any] = {"specimen.width_mm": 50.0, "specimen.height_mm": 50.0,
+                               "specimen.thickness_mm": 10.0}
+
+
+def paper_studies_3d() -> list[Study]:
+    """The studies of the paper's 3D model (SCDA Cases 1-4, hybrid, lab HS), with the
+    claims of their 2D counterparts (same ids) and the 3D fracture counts."""
+    claims = {c.id: c for s in paper_studies() for c in s.claims}
+    slab = "a 50 x 50 x 10 mm slab with the 10 mm borehole along z"
+    scda = Study(
+        "scda-confinement-3d", "SCDA charging under the four in-situ stress cases, 3D",
+        "Sect. 5.1, Fig. 10",
+        f"examples/3d/scda-case2.toml on {slab}, stress.case 1-4: SCDA expansion (Eq. 9) "
+        "to the 45 MPa peak.",
+        {"name": "scda-confinement-3d", "base": "3d/scda-case2.toml",
+         "set": {**COMMON_SET, **SLAB_3D_SET},
+         "points": [{"id": case, "set": {"stress.case": case}} for case in CASES]},
+        ("n_radial_fractures_top", "n_radial_fractures_mid", "fracture_extent_mm",
+         "peak_expansive_pressure_MPa"),
+        (claims["scda-radial"], claims["scda-confinement-shortens"]),
+        notes=("Radial fractures are counted on the slab's top face (n_radial_fractures); "
+               "the slab's half-width, 25 mm, bounds the fracture extent.",),
+        dimension=3,
+    )
+    hybrid = Study(
+        "hybrid-3d", "Hybrid SCDA-HS vs HS alone, 90 ml/min, Case 2, 3D", "Sect. 6, Fig. 17",
+        "examples/3d/hybrid-case2-90mlmin-50mm.toml and hs-only-case2-90mlmin-50mm.toml: "
+        f"{slab}, no fissures, injection stopped 1 ms after breakdown; same seeds, so each "
+        "pair shares its grain structure.",
+        {"name": "hybrid-3d", "base": "3d/hybrid-case2-90mlmin-50mm.toml", "set": COMMON_SET,
+         "points": [{"id": "hybrid-f0", "base": "3d/hybrid-case2-90mlmin-50mm.toml"},
+                    {"id": "hs-only-f0", "base": "3d/hs-only-case2-90mlmin-50mm.toml"}]},
+        ("breakdown_pressure_MPa", "n_radial_fractures_top", "n_radial_fractures_mid",
+         "breakdown_drop_1ms_fraction"),
+        (claims["hybrid-breakdown-f0"], claims["hybrid-gentler-f0"],
+         claims["hybrid-fractures-f0"],
+         Claim("hybrid-fractures-mid-f0", "more fractures extended by the hybrid than by "
+               "HS-only on the mid-plane (no fissures)", "n_radial_fractures_mid", "greater",
+               ("hybrid-f0", "hs-only-f0"), paper="five vs three, counted on the top face "
+               "(Fig. 17b, c)")),
+        notes=("n_radial_fractures counts the branches crossing 2 well radii on the top "
+               "face, as the paper counted; n_radial_fractures_mid on the mid-plane.",),
+        dimension=3,
+    )
+    lab = Study(
+        "lab-hs-3d", "Laboratory HS test: unconfined, 5 ml/min, 3D", "Sect. 5.2, Fig. 11",
+        "examples/3d/lab-hs-5mlmin.toml: the 22.5 x 45 mm cylinder with its 3 mm hole "
+        "along the axis, 2 kN on its ends, 2-5 mm grains at 1.5 mm zones, stopped 1 ms "
+        "after breakdown (15-25 min per run on one core).",
+        {"name": "lab-hs-3d", "base": "3d/lab-hs-5mlmin.toml", "set": COMMON_SET,
+         "points": [{"id": "lab-5mlmin"}]},
+        ("breakdown_pressure_MPa", "n_cracks"),
+        (claims["lab-breakdown"],),
+        dimension=3,
+    )
+    return [scda, hybrid, lab]
+
+
 STUDY_NAMES = tuple(s.name for s in paper_studies())
+STUDY_NAMES_3D = tuple(s.name for s in paper_studies_3d())
+DIMENSIONS = (2, 3)
 
 
 def default_examples_dir() -> Path:
@@ -262,17 +341,23 @@ def default_examples_dir() -> Path:
     return Path(__file__).resolve().parents[3] / "examples"
 
 
-def select(names: Sequence[str] | None = None) -> list[Study]:
-    """The studies named (all by default), in the paper's order; unknown names are errors."""
-    studies = paper_studies()
+def select(names: Sequence[str] | None = None, dimensions: Sequence[int] = (2,)
+           ) -> list[Study]:
+    """The studies named (all by default) in each of ``dimensions``, in the paper's
+    order; a name is a study's own or its family's (``hybrid`` selects ``hybrid-3d`` in
+    3D). Unknown names and dimensions are errors."""
+    for i, d in enumerate(dimensions):
+        if d not in DIMENSIONS:
+            raise ConfigError(f"dim.{i}", f"must be 2 or 3 (got {d})")
+    studies = [s for d in DIMENSIONS if d in dimensions
+               for s in (paper_studies() if d == 2 else paper_studies_3d())]
     if not names:
         return studies
-    known = {s.name for s in studies}
     for i, name in enumerate(names):
-        if name not in known:
+        if not any(name in (s.name, s.family) for s in studies):
             raise ConfigError(f"only.{i}", f"unknown study {name!r}; known: "
                               + ", ".join(s.name for s in studies))
-    return [s for s in studies if s.name in names]
+    return [s for s in studies if s.name in names or s.family in names]
 
 
 def plan_studies(studies: Sequence[Study], realisations: int, examples: str | Path | None
@@ -287,5 +372,6 @@ def plan_studies(studies: Sequence[Study], realisations: int, examples: str | Pa
     return [(s, s.plan(realisations, examples)) for s in studies]
 
 
-__all__ = ["COMMON_SET", "LAB_SCENARIO", "STUDY_NAMES", "Study", "default_examples_dir",
-           "paper_studies", "plan_studies", "select"]
+__all__ = ["COMMON_SET", "DIMENSIONS", "LAB_SCENARIO", "SLAB_3D_SET", "STUDY_NAMES",
+           "STUDY_NAMES_3D", "Study", "default_examples_dir", "paper_studies",
+           "paper_studies_3d", "plan_studies", "select"]

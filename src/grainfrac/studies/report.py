@@ -164,9 +164,24 @@ RULES = (
 )
 
 
-def _summary_rows(outcomes: Sequence[StudyOutcome]) -> list[list[str]]:
-    return [[o.study.name, v.claim.text, v.claim.paper, v.estimate, v.verdict]
-            for o in outcomes for v in o.verdicts]
+def _summary_table(outcomes: Sequence[StudyOutcome]
+                   ) -> tuple[list[str], list[list[str]], set[int]]:
+    """The claims table: one row per claim, its estimate and verdict in each dimension
+    run side by side (a claim tested in 2D and in 3D shares one row). Returns the
+    header, the rows and the columns that hold verdicts."""
+    dims = sorted({o.study.dimension for o in outcomes}) or [2]
+    both = len(dims) > 1
+    header = ["study", "claim", "paper"]
+    for d in dims:
+        header += [f"ours ({d}D)", f"verdict ({d}D)"] if both else ["ours", "verdict"]
+    rows: dict[str, list[str]] = {}
+    for o in outcomes:
+        col = 3 + 2 * dims.index(o.study.dimension)
+        for v in o.verdicts:
+            row = rows.setdefault(v.claim.id, [o.study.family, v.claim.text, v.claim.paper]
+                                  + ["not run"] * (2 * len(dims)))
+            row[col:col + 2] = [v.estimate, v.verdict]
+    return header, list(rows.values()), {4 + 2 * i for i in range(len(dims))}
 
 
 def _flagged(outcome: StudyOutcome) -> str:
@@ -179,11 +194,10 @@ def _flagged(outcome: StudyOutcome) -> str:
 def write_markdown(outcomes: Sequence[StudyOutcome], path: Path, header: str) -> Path:
     """``report.md``: claims table, decision rules, then one section per study."""
     parts = [f"# Reproduction report\n\n{header}\n", "## Claims\n",
-             _md_table(["study", "claim", "paper", "ours", "verdict"], _summary_rows(outcomes)),
-             "", f"{RULES}\n"]
+             _md_table(*_summary_table(outcomes)[:2]), "", f"{RULES}\n"]
     for o in outcomes:
         s = o.study
-        parts += [f"## {s.title}\n", f"*{s.reference}.* {s.description}\n"]
+        parts += [f"## {s.title}\n", f"*{s.reference}; {s.dimension}D.* {s.description}\n"]
         parts += [f"Note: {note}\n" for note in s.notes]
         parts += [_md_table(*_point_table(o)), ""]
         if o.figure is not None:
@@ -212,13 +226,13 @@ img{max-width:100%;border:1px solid #d0d7de}.note{color:#57606a}
 """
 
 
-def _html_table(header: list[str], rows: list[list[str]], verdict_col: int | None = None
-                ) -> str:
+def _html_table(header: list[str], rows: list[list[str]],
+                verdict_cols: set[int] = frozenset()) -> str:
     out = ["<table><tr>" + "".join(f"<th>{html.escape(h)}</th>" for h in header) + "</tr>"]
     for row in rows:
         cells = []
         for i, cell in enumerate(row):
-            if i == verdict_col:
+            if i in verdict_cols:
                 colour = COLOURS.get(cell, "#1f2328")
                 cells.append(f'<td class="v" style="color:{colour}">{html.escape(cell)}</td>')
             else:
@@ -230,13 +244,13 @@ def _html_table(header: list[str], rows: list[list[str]], verdict_col: int | Non
 def write_html(outcomes: Sequence[StudyOutcome], path: Path, header: str) -> Path:
     """``report.html``: the markdown report's content, figures embedded (no network)."""
     body = [f"<h1>Reproduction report</h1><p>{html.escape(header)}</p><h2>Claims</h2>",
-            _html_table(["study", "claim", "paper", "ours", "verdict"],
-                        _summary_rows(outcomes), verdict_col=4),
+            _html_table(*_summary_table(outcomes)),
             f"<p class=note>{html.escape(RULES).replace('**', '')}</p>"]
     for o in outcomes:
         s = o.study
         body.append(f'<h2 id="{s.name}">{html.escape(s.title)}</h2>'
-                    f"<p><em>{html.escape(s.reference)}.</em> {html.escape(s.description)}</p>")
+                    f"<p><em>{html.escape(s.reference)}; {s.dimension}D.</em> "
+                    f"{html.escape(s.description)}</p>")
         body += [f"<p class=note>Note: {html.escape(n)}</p>" for n in s.notes]
         body.append(_html_table(*_point_table(o)))
         if o.figure is not None and o.figure.is_file():
@@ -246,7 +260,7 @@ def write_html(outcomes: Sequence[StudyOutcome], path: Path, header: str) -> Pat
             rows = [[v.claim.text, v.claim.paper, v.estimate, v.verdict, v.reason]
                     for v in o.verdicts]
             body.append(_html_table(["claim", "paper", "ours", "verdict", "why"], rows,
-                                    verdict_col=3))
+                                    verdict_cols={3}))
         else:
             body.append("<p>No claim of the paper is decided in this study.</p>")
         if o.result.failures:

@@ -63,9 +63,11 @@ def run_studies(studies: Sequence[Study], out: str | Path, *, realisations: int 
 def run_paper_study(out: str | Path, *, realisations: int = 10,
                     only: Sequence[str] | None = None, examples: str | Path | None = None,
                     scheduler: Any = None, n_workers: int | None = None,
-                    progress: Callable[[SweepProgress], None] | None = None) -> StudyRun:
-    """Run the paper's study matrix (or the studies in ``only``) and write the report."""
-    return run_studies(select(only), out, realisations=realisations, examples=examples,
+                    progress: Callable[[SweepProgress], None] | None = None,
+                    dimensions: Sequence[int] = (2,)) -> StudyRun:
+    """Run the paper's study matrix (or the studies in ``only``) in ``dimensions`` and
+    write the report."""
+    return run_studies(select(only, dimensions), out, realisations=realisations, examples=examples,
                        scheduler=scheduler, n_workers=n_workers, progress=progress)
 
 
