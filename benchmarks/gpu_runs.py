@@ -39,7 +39,6 @@ import sys
 import threading
 import time
 import tomllib
-from collections import defaultdict
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -54,6 +53,9 @@ from grainfrac.physics.solver import BACKEND_VARIABLE, MechanicsSolver
 from grainfrac.run import RunInterrupted
 from grainfrac.scenario import Scenario
 from grainfrac.simulation import run_scenario
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _clock import Clock  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 CUBE = ROOT / "examples" / "3d" / "hybrid-case3-cube.toml"
@@ -71,31 +73,6 @@ def backend(name: str):
         yield
     finally:
         os.environ.pop(BACKEND_VARIABLE, None)
-
-
-class Clock:
-    """Wall time (s) spent in wrapped functions, by label."""
-
-    def __init__(self):
-        self.seconds: dict[str, float] = defaultdict(float)
-        self._undo: list = []
-
-    def wrap(self, owner, name: str, label: str) -> None:
-        original = getattr(owner, name)
-
-        def timed(*args, **kwargs):
-            start = time.perf_counter()
-            try:
-                return original(*args, **kwargs)
-            finally:
-                self.seconds[label] += time.perf_counter() - start
-
-        setattr(owner, name, timed)
-        self._undo.append((owner, name, original))
-
-    def restore(self) -> None:
-        for owner, name, original in reversed(self._undo):
-            setattr(owner, name, original)
 
 
 def history(out: Path) -> list[dict[str, str]]:

@@ -2,8 +2,18 @@
 
 Runs a 3D scenario file (default: the HS-only Case 2 slab of ``examples/3d``) into a
 temporary directory and prints the wall time of the whole run, its mechanical steps,
-tetrahedron-steps per second, and the breakdown it found. ``--threads`` is the run's
-``GRAINFRAC_THREADS`` (the mechanics' worker threads).
+tetrahedron-steps per second, the breakdown it found, and the wall time split into:
+
+- set-up: building the grain assembly and the mechanical model;
+- mechanics: the explicit steps (element forces, contact law, node update: one
+  compiled loop, so the contacts' share is not separated here;
+  ``benchmarks/mechanics_step.py`` times each kernel);
+- pressure solve: the fluid's implicit steps (``flow.implicit_step``);
+- output: snapshots and checkpoints;
+- coupling and host: the rest (the coupling's apertures and pressures on contacts,
+  crack events, histories, stage logic, figures).
+
+``--threads`` is the run's ``GRAINFRAC_THREADS`` (the mechanics' worker threads).
 
 Usage::
 
@@ -34,18 +44,35 @@ def main(argv: list[str] | None = None) -> int:
     os.environ["GRAINFRAC_THREADS"] = str(args.threads)
     os.environ.setdefault("NUMBA_NUM_THREADS", str(args.threads))
 
+    import grainfrac.run as run_module
+    from grainfrac.io.snapshots import SnapshotSeries
+    from grainfrac.physics import flow
+    from grainfrac.physics.solver import MechanicsSolver
     from grainfrac.scenario import load_scenario
     from grainfrac.simulation import run_scenario
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from _clock import Clock
 
     scenario, recipe = load_scenario(args.scenario)
     if scenario.dimension != 3:
         parser.error(f"{args.scenario} is not a 3D scenario (dimension = {scenario.dimension})")
     if args.seed is not None:
         scenario = scenario.with_seed(args.seed)
+    clock = Clock()
+    clock.wrap(run_module, "build_assembly", "set-up")
+    clock.wrap(run_module, "build_mechanical_model", "set-up")
+    clock.wrap(MechanicsSolver, "cycle", "mechanics")
+    clock.wrap(flow, "implicit_step", "pressure solve")
+    clock.wrap(SnapshotSeries, "write", "output")
+    clock.wrap(run_module, "write_checkpoint", "output")
     with tempfile.TemporaryDirectory() as tmp:
         start = time.perf_counter()
-        summary = run_scenario(scenario, recipe, Path(tmp) / "run",
-                               base_dir=args.scenario.parent)
+        try:
+            summary = run_scenario(scenario, recipe, Path(tmp) / "run",
+                                   base_dir=args.scenario.parent)
+        finally:
+            clock.restore()
         wall = time.perf_counter() - start
         with open(Path(tmp) / "run" / "history.csv", newline="") as f:
             last_step = int(list(csv.DictReader(f))[-1]["step"])
@@ -60,6 +87,11 @@ def main(argv: list[str] | None = None) -> int:
     print(f"breakdown {'-' if bd is None else f'{bd:.3f} MPa'}, "
           f"{summary['n_cracks']} cracks, radial fractures top/mid "
           f"{summary.get('n_radial_fractures_top')}/{summary.get('n_radial_fractures_mid')}")
+    split = dict(clock.seconds)
+    split["coupling and host"] = wall - sum(split.values())
+    print("time split:")
+    for part, seconds in split.items():
+        print(f"  {part:<18} {seconds:8.1f} s  {seconds / wall:6.1%}")
     return 0
 
 

@@ -287,9 +287,9 @@ def test_the_3d_studies_plan_on_the_3d_examples(monkeypatch):
 
 
 def test_the_claims_table_puts_2d_and_3d_side_by_side():
+    from grainfrac.studies.claims import Verdict
     from grainfrac.studies.paper import paper_studies, paper_studies_3d
     from grainfrac.studies.report import StudyOutcome, _summary_table
-    from grainfrac.studies.claims import Verdict
 
     two = next(s for s in paper_studies() if s.name == "hybrid")
     three = next(s for s in paper_studies_3d() if s.name == "hybrid-3d")
