@@ -585,13 +585,16 @@ def claims_tables(data: dict[str, Any]) -> str:
              ""]
     if data.get("note"):
         lines += [data["note"], ""]
-    lines += ["| claim | paper | grainfrac (mean [95 % CI] or count) | runs | verdict |",
-              "|---|---|---|---|---|"]
+    # A study's rows name their study (a 3D study's name ends in -3d).
+    studies = any("study" in c for c in data["claims"])
+    lines += [("| study " if studies else "")
+              + "| claim | paper | grainfrac (mean [95 % CI] or count) | runs | verdict |",
+              ("|---" if studies else "") + "|---|---|---|---|---|"]
     for c in data["claims"]:
         n = sum(len(v) for v in c.get("values", {}).values())
-        lines.append("| " + " | ".join(_cell(x) for x in (
-            c["statement"], c.get("paper", ""), c["estimate"], n or "-",
-            f"**{c['verdict']}**")) + " |")
+        cells = ([c.get("study", "")] if studies else []) + [
+            c["statement"], c.get("paper", ""), c["estimate"], n or "-", f"**{c['verdict']}**"]
+        lines.append("| " + " | ".join(_cell(x) for x in cells) + " |")
     lines.append("")
     return "\n".join(lines)
 
