@@ -170,6 +170,9 @@ def test_cli_study_rejects_unknown_names(tmp_path):
     assert result.exit_code == 2 and "unknown study 'nope'" in result.output
     result = CliRunner().invoke(app, ["study", "thesis", "--out", str(tmp_path / "s")])
     assert result.exit_code == 2 and "known: paper" in result.output
+    result = CliRunner().invoke(app, ["study", "paper", "--out", str(tmp_path / "s"),
+                                      "--dim", "4"])
+    assert result.exit_code == 2 and "dim.0: must be 2 or 3 (got 4)" in result.output
 
 
 # --------------------------------------------------------------------------- the report
