@@ -75,15 +75,17 @@ def claims(cache: Path) -> Path:
     return path
 
 
-def study(directory: Path) -> Path:
-    """Verdicts and per-run values of a finished ``grainfrac study paper --out DIR``."""
+def study(directory: Path, options: str = "") -> Path:
+    """Verdicts and per-run values of a finished ``grainfrac study paper --out DIR``
+    (``options``: the study's other command-line options, for the record)."""
     verdicts = json.loads((directory / "claims.json").read_text())
     rows = []
     for v in verdicts:
         values = _study_values(directory / v["study"], v["quantity"])
         rows.append({**v, "id": v["claim"], "threshold": None, "values": values})
     path = DATA / "study-claims.json"
-    _write(path, {"command": f"grainfrac study paper --out {directory.name}; python "
+    extra = f" {options}" if options else ""
+    _write(path, {"command": f"grainfrac study paper{extra} --out {directory.name}; python "
                              f"docs/scripts/update_validation.py study {directory.name}",
                   "generated": datetime.date.today().isoformat(),
                   "grainfrac_version": _version(), "claims": rows})
@@ -121,13 +123,16 @@ def main() -> None:
                    help="where the claim sweeps are kept between calls")
     s = sub.add_parser("study", help="verdicts of a grainfrac study paper directory")
     s.add_argument("directory", type=Path)
+    s.add_argument("--options", default="",
+                   help="the study's command-line options, recorded with its verdicts "
+                        "(e.g. '--dim 3 --realisations 2')")
     args = parser.parse_args()
     if args.what == "verify":
         verify(args.kgd)
     elif args.what == "claims":
         claims(args.cache)
     else:
-        study(args.directory)
+        study(args.directory, args.options)
 
 
 if __name__ == "__main__":
