@@ -41,7 +41,7 @@ class SampleClock:
         self.samples: list[tuple[float, float]] = []
 
     def __call__(self, curve: LoadingCurve) -> None:
-        self.samples.append((time.perf_counter() - self.start, curve.array("load")[-1]))
+        self.samples.append((time.perf_counter() - self.start, float(curve.load[-1])))
 
 
 def main() -> None:

@@ -6,8 +6,7 @@ tetrahedron-steps per second, the breakdown it found, and the wall time split in
 
 - set-up: building the grain assembly and the mechanical model;
 - mechanics: the explicit steps (element forces, contact law, node update: one
-  compiled loop, so the contacts' share is not separated here;
-  ``benchmarks/mechanics_step.py`` times each kernel);
+  compiled loop, so the contacts' share is not timed apart);
 - pressure solve: the fluid's implicit steps (``flow.implicit_step``);
 - output: snapshots and checkpoints;
 - coupling and host: the rest (the coupling's apertures and pressures on contacts,
