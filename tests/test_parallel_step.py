@@ -64,6 +64,52 @@ def test_parallel_step_is_the_serial_step_bit_for_bit():
     assert worst < 1e-12
 
 
+def _pull_block(threads: int) -> MechanicsSolver:
+    """A 3D block of four bonded slab grains pulled apart across its contact planes."""
+    from grainfrac.physics.cuda.synthetic import grain_block, pull_loads
+
+    block = grain_block(8, size=8e-3, cuts=3, softening=True)
+    solver = MechanicsSolver(block.model, pull_loads(block, (2.0, 0.0, 0.0)),
+                             threads=threads)
+    for _ in range(40):
+        solver.cycle(100)
+        if len(solver.cracks.contact) > 20:
+            break
+    return solver
+
+
+@pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs 2 numba threads")
+def test_parallel_3d_step_is_the_serial_step_bit_for_bit():
+    serial, parallel = _pull_block(1), _pull_block(2)
+    assert len(serial.cracks.contact) > 0
+    assert serial.cracks.contact == parallel.cracks.contact
+    for name, a in serial.state_arrays().items():
+        if name != "energies":
+            assert np.array_equal(a, parallel.state_arrays()[name]), name
+
+
+def test_cell_blocks_share_no_node_and_cover_every_cell():
+    from grainfrac.physics.cuda.synthetic import grain_block
+    from grainfrac.physics.records import cell_blocks
+
+    model = grain_block(8, size=8e-3, cuts=3).model
+    bounds = cell_blocks(model.n_nodes, model.cells, n_blocks=64)
+    assert bounds[0] == 0 and bounds[-1] == model.n_elements
+    assert np.all(np.diff(bounds) > 0)
+    assert len(bounds) - 1 == 4  # one block per slab grain: nowhere else to cut
+    owner = np.full(model.n_nodes, -1)
+    for b in range(len(bounds) - 1):
+        nodes = np.unique(model.cells[bounds[b]:bounds[b + 1]])
+        assert np.all(owner[nodes] == -1), f"block {b} shares a node with an earlier one"
+        owner[nodes] = b
+    # two blocks asked of four equal grains: cut in the middle
+    assert list(cell_blocks(model.n_nodes, model.cells, n_blocks=2)) == [
+        0, model.n_elements // 2, model.n_elements]
+    # one grain: one block
+    grain = model.cells[:bounds[1]]
+    assert list(cell_blocks(model.n_nodes, grain)) == [0, len(grain)]
+
+
 def test_threads_option_is_checked_before_any_compute(monkeypatch):
     from typer.testing import CliRunner
 

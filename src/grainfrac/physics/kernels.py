@@ -339,28 +339,62 @@ def contact_updates(nodes, contacts, state, dt, allow_failure, out):
 
 
 @njit(cache=True, parallel=True)
-def gather_forces(force, adjacency, per_node, on_second):
-    """Each node's force from its cells' shares and its contacts, in parallel.
+def block_element_forces(nodes, elements, state, adjacency):
+    """Zero ``nodes.force`` and add the cells' internal forces, a block per task.
 
-    A node sums its cells in ascending cell order, then its contacts in ascending
-    contact order: the order in which the serial kernels scatter into it, so the
-    forces are bit for bit those of the serial step for any number of threads.
+    Blocks share no node (:class:`grainfrac.physics.records.Adjacency`) and each adds
+    its cells in ascending order, so every node's force is bit for bit the serial
+    :func:`element_forces`'. (Each task calls a serial kernel: numba dropped the state
+    writes of an inlined update inside ``prange``.)
     """
-    d = force.shape[1]
-    k = per_node.shape[1]
+    force = nodes.force
     for n in prange(force.shape[0]):
-        for i in range(d):
-            total = 0.0
-            for j in range(adjacency.cell_ptr[n], adjacency.cell_ptr[n + 1]):
-                slot = adjacency.cell_slot[j]
-                total -= per_node[slot // k, slot % k, i]
-            for j in range(adjacency.contact_ptr[n], adjacency.contact_ptr[n + 1]):
-                slot = adjacency.contact_slot[j]
-                if slot % 2 == 1:
-                    total += on_second[slot // 2, i]
+        force[n, :] = 0.0
+    blocks = adjacency.block_ptr
+    for b in prange(blocks.shape[0] - 1):
+        if elements.grad.shape[2] == 2:
+            triangle.range_forces(nodes.u, elements, state, blocks[b], blocks[b + 1], force)
+        else:
+            tetrahedron.range_forces(nodes.u, elements, state, blocks[b], blocks[b + 1], force)
+
+
+def _gather_contact_forces_for(d):
+    """:func:`gather_contact_forces` compiled for ``d`` components per node (unrolled)."""
+
+    @njit(cache=True, parallel=True)
+    def gather_contact_forces_d(force, adjacency, on_second):
+        ptr, slots = adjacency.contact_ptr, adjacency.contact_slot
+        for i in prange(adjacency.contact_node.shape[0]):
+            n = adjacency.contact_node[i]
+            for j in range(ptr[i], ptr[i + 1]):
+                slot = slots[j]
+                # slot = 2 contact + (0 for its first node, 1 for its second)
+                c = slot >> 1
+                if slot & 1:
+                    for k in range(d):
+                        force[n, k] += on_second[c, k]
                 else:
-                    total -= on_second[slot // 2, i]
-            force[n, i] = total
+                    for k in range(d):
+                        force[n, k] -= on_second[c, k]
+
+    return gather_contact_forces_d
+
+
+_gather_contact_forces_2d = _gather_contact_forces_for(2)
+_gather_contact_forces_3d = _gather_contact_forces_for(3)
+
+
+@njit(cache=True)
+def gather_contact_forces(force, adjacency, on_second):
+    """Add each sub-contact's forces into its two nodes, a node per task, in parallel.
+
+    A node adds its contacts in ascending contact order after its cells: the order of
+    the serial kernels, so the forces are bit for bit the serial step's.
+    """
+    if force.shape[1] == 2:
+        _gather_contact_forces_2d(force, adjacency, on_second)
+    else:
+        _gather_contact_forces_3d(force, adjacency, on_second)
 
 
 def contact_strain_energy(sigma_n, tau, kn, ks, area) -> float:
@@ -522,10 +556,11 @@ def run_steps(control, nodes, loads, elements, element_state, contacts, contact_
     step (:func:`pore_spring_pressure`).
 
     With ``control.parallel`` the cells, contacts and nodes are updated on all of
-    numba's threads: cells and contacts write their forces per cell and per contact,
-    and each node gathers them through ``adjacency`` in the serial order, so the
-    motion, stresses and cracks are bit for bit those of the serial path; only the
-    energy books' sums over nodes are reduced in another order (round-off).
+    numba's threads: cells add their forces into their nodes a block of grains per task,
+    contacts write theirs per contact and each contact node gathers them through
+    ``adjacency`` in the serial order, so the motion, stresses and cracks are bit for
+    bit those of the serial path; only the energy books' sums over nodes are reduced
+    in another order (round-off).
     """
     dt = control.dt
     d = nodes.u.shape[1]
@@ -535,7 +570,6 @@ def run_steps(control, nodes, loads, elements, element_state, contacts, contact_
     failed_now = np.empty(n_contacts, dtype=np.int64)
     parallel = control.parallel
     if parallel:
-        per_node = np.empty((elements.cells.shape[0], elements.cells.shape[1], d))
         on_second = np.empty((n_contacts, d))
         contact_books = np.empty((n_contacts, 3))
         broke = np.zeros(n_contacts, dtype=np.bool_)
@@ -546,10 +580,7 @@ def run_steps(control, nodes, loads, elements, element_state, contacts, contact_
             e = expanding[i]
             element_state.eigenstrain[e] += rate[e] * dt
         if parallel:
-            if d == 2:
-                triangle.node_forces(nodes.u, elements, element_state, per_node)
-            else:
-                tetrahedron.node_forces(nodes.u, elements, element_state, per_node)
+            block_element_forces(nodes, elements, element_state, adjacency)
         else:
             nodes.force[:, :] = 0.0
             element_forces(nodes, elements, element_state, nodes.force)
@@ -565,7 +596,7 @@ def run_steps(control, nodes, loads, elements, element_state, contacts, contact_
         if parallel:
             contact_updates(nodes, contacts, contact_state, dt, control.allow_failure,
                             (on_second, contact_books, broke))
-            gather_forces(nodes.force, adjacency, per_node, on_second)
+            gather_contact_forces(nodes.force, adjacency, on_second)
             w_fric = 0.0
             w_fluid = 0.0
             w_bond = 0.0

@@ -65,32 +65,68 @@ class Elements(NamedTuple):
 
 
 class Adjacency(NamedTuple):
-    """What touches each node, in the order the serial kernels add to it (CSR).
+    """How the parallel step adds forces into nodes without races, in the serial order.
 
-    Node ``n``'s cells are ``cell_slot[cell_ptr[n]:cell_ptr[n + 1]]`` as ``e (d + 1) + k``
-    (node ``k`` of cell ``e``), ascending ``e``; its sub-contacts are
-    ``contact_slot[contact_ptr[n]:contact_ptr[n + 1]]`` as ``2 c + side`` (side 1: the
+    Cells come in blocks of consecutive cells, ``block_ptr[b]`` to ``block_ptr[b + 1]``,
+    that share no node: one thread per block adds each cell's forces straight into its
+    nodes in the serial kernel's order. Meshes list their cells grain by grain and
+    grains meet only through sub-contacts (two distinct nodes), so blocks end at grain
+    ends. Node ``contact_node[i]``'s sub-contacts are
+    ``contact_slot[contact_ptr[i]:contact_ptr[i + 1]]`` as ``2 c + side`` (side 1: the
     node is the contact's second), ascending ``c``.
     """
 
-    cell_ptr: np.ndarray
-    cell_slot: np.ndarray
+    block_ptr: np.ndarray
+    contact_node: np.ndarray
     contact_ptr: np.ndarray
     contact_slot: np.ndarray
 
 
+# Cell blocks of the parallel step: enough to balance any thread count up to about this,
+# few enough that a block's call costs nothing beside its cells.
+CELL_BLOCKS = 64
+
+
+def cell_blocks(n_nodes: int, cells: np.ndarray, n_blocks: int = CELL_BLOCKS) -> np.ndarray:
+    """Bounds of up to ``n_blocks`` runs of consecutive cells of about equal size that
+    share no node.
+
+    A run may end before cell ``i`` only where no node has cells on both sides; among
+    those places the ones nearest to ``k m / n_blocks`` are taken. A mesh with no such
+    place (one grain) is one block.
+    """
+    cells = np.asarray(cells, dtype=np.int64)
+    m = len(cells)
+    cell = np.repeat(np.arange(m), cells.shape[1])
+    first = np.full(n_nodes, m, dtype=np.int64)
+    last = np.full(n_nodes, -1, dtype=np.int64)
+    np.minimum.at(first, cells.ravel(), cell)
+    np.maximum.at(last, cells.ravel(), cell)
+    used = last >= 0
+    # spanning[i] > 0: some node has cells before i and from i on
+    spanning = np.zeros(m + 1, dtype=np.int64)
+    np.add.at(spanning, first[used] + 1, 1)
+    np.add.at(spanning, last[used] + 1, -1)
+    ends = np.flatnonzero(np.cumsum(spanning)[1:m] == 0) + 1
+    if len(ends) == 0:
+        return np.array([0, m], dtype=np.int64)
+    targets = np.arange(1, n_blocks) * m / n_blocks
+    nearest = np.clip(np.searchsorted(ends, targets), 1, len(ends)) - 1
+    upper = np.minimum(nearest + 1, len(ends) - 1)
+    pick = np.where(np.abs(ends[upper] - targets) < np.abs(ends[nearest] - targets),
+                    upper, nearest)
+    return np.unique(np.concatenate([[0], ends[pick], [m]])).astype(np.int64)
+
+
 def build_adjacency(n_nodes: int, cells: np.ndarray, contact_nodes: np.ndarray) -> Adjacency:
-    """The :class:`Adjacency` of a mesh (stable sorts keep cell and contact order)."""
-
-    def csr(owner: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        slot = np.argsort(owner, kind="stable").astype(np.int64)
-        ptr = np.zeros(n_nodes + 1, dtype=np.int64)
-        np.cumsum(np.bincount(owner, minlength=n_nodes), out=ptr[1:])
-        return ptr, slot
-
-    cell_ptr, cell_slot = csr(np.asarray(cells, dtype=np.int64).ravel())
-    contact_ptr, contact_slot = csr(np.asarray(contact_nodes, dtype=np.int64).ravel())
-    return Adjacency(cell_ptr, cell_slot, contact_ptr, contact_slot)
+    """The :class:`Adjacency` of a mesh (a stable sort keeps contact order)."""
+    owner = np.asarray(contact_nodes, dtype=np.int64).ravel()
+    contact_slot = np.argsort(owner, kind="stable").astype(np.int64)
+    counts = np.bincount(owner, minlength=n_nodes)
+    contact_node = np.flatnonzero(counts).astype(np.int64)
+    contact_ptr = np.zeros(len(contact_node) + 1, dtype=np.int64)
+    np.cumsum(counts[contact_node], out=contact_ptr[1:])
+    return Adjacency(cell_blocks(n_nodes, cells), contact_node, contact_ptr, contact_slot)
 
 
 class ElementState(NamedTuple):

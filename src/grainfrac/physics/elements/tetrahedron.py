@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 DIMENSION = 3
 NODES_PER_CELL = 4
@@ -82,48 +82,41 @@ def node_force(elements, e, k, vol, sxx, syy, szz, syz, sxz, sxy):
             vol * (gx * sxz + gy * syz + gz * szz))
 
 
+@njit(cache=True, inline="always")
+def add_cell_forces(u, elements, state, e, force):
+    """Store tetrahedron ``e``'s stress and subtract V B_k^T sigma from its nodes' forces."""
+    sxx, syy, szz, syz, sxz, sxy = stress(u, elements, state, e)
+    vol = elements.measure[e]
+    out = state.stress
+    out[e, 0] = sxx
+    out[e, 1] = syy
+    out[e, 2] = szz
+    out[e, 3] = syz
+    out[e, 4] = sxz
+    out[e, 5] = sxy
+    for k in range(4):
+        n = elements.cells[e, k]
+        fx, fy, fz = node_force(elements, e, k, vol, sxx, syy, szz, syz, sxz, sxy)
+        force[n, 0] -= fx
+        force[n, 1] -= fy
+        force[n, 2] -= fz
+
+
 @njit(cache=True)
 def internal_forces(u, elements, state, force):
     """Add internal forces of linear tetrahedra to ``force``; store stresses.
 
     f_a = -V B_a^T sigma with V the volume; ``stress[e] = (sxx, syy, szz, syz, sxz, sxy)``.
     """
-    cells, out = elements.cells, state.stress
-    for e in range(cells.shape[0]):
-        sxx, syy, szz, syz, sxz, sxy = stress(u, elements, state, e)
-        vol = elements.measure[e]
-        out[e, 0] = sxx
-        out[e, 1] = syy
-        out[e, 2] = szz
-        out[e, 3] = syz
-        out[e, 4] = sxz
-        out[e, 5] = sxy
-        for k in range(4):
-            n = cells[e, k]
-            fx, fy, fz = node_force(elements, e, k, vol, sxx, syy, szz, syz, sxz, sxy)
-            force[n, 0] -= fx
-            force[n, 1] -= fy
-            force[n, 2] -= fz
+    for e in range(elements.cells.shape[0]):
+        add_cell_forces(u, elements, state, e, force)
 
 
-@njit(cache=True, parallel=True)
-def node_forces(u, elements, state, per_node):
-    """Stresses, and each node's share ``per_node[e, k] = V B_k^T sigma``, in parallel."""
-    out = state.stress
-    for e in prange(elements.cells.shape[0]):
-        sxx, syy, szz, syz, sxz, sxy = stress(u, elements, state, e)
-        vol = elements.measure[e]
-        out[e, 0] = sxx
-        out[e, 1] = syy
-        out[e, 2] = szz
-        out[e, 3] = syz
-        out[e, 4] = sxz
-        out[e, 5] = sxy
-        for k in range(4):
-            fx, fy, fz = node_force(elements, e, k, vol, sxx, syy, szz, syz, sxz, sxy)
-            per_node[e, k, 0] = fx
-            per_node[e, k, 1] = fy
-            per_node[e, k, 2] = fz
+@njit(cache=True)
+def range_forces(u, elements, state, first, stop, force):
+    """:func:`internal_forces` of the tetrahedra ``first`` to ``stop - 1``."""
+    for e in range(first, stop):
+        add_cell_forces(u, elements, state, e, force)
 
 
 @njit(cache=True)
