@@ -70,7 +70,7 @@ def _advance_with_cpu_kernels(self, n_steps, *, timings=None):
     s = self.solver
     return kernels.run_steps(
         StepControl(int(n_steps), s.model.dt, s.damping, bool(s.allow_failure),
-                    float(s.velocity_limit), False),
+                    float(s.velocity_limit), 1),
         _host(self._nodes), _host(self._loads), _host(self._elements),
         _host(self._element_state), _host(self._contacts), _host(self._contact_state),
         s.model.adjacency, _host(self._platens), _host(self._pores_device()),

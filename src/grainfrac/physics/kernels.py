@@ -319,43 +319,45 @@ def contact_forces(nodes, contacts, state, dt, allow_failure, failed_now):
                          contacts.nodes.shape[0], None, failed_now)
 
 
-# Sub-contacts per parallel task: the call per task costs what ~1 contact update does.
-CONTACT_CHUNK = 256
-
-
 @njit(cache=True, parallel=True)
-def contact_updates(nodes, contacts, state, dt, allow_failure, out):
-    """Every sub-contact's update in parallel chunks (:func:`contact_range`).
+def contact_updates(nodes, contacts, state, dt, allow_failure, out, threads):
+    """Every sub-contact's update, an equal run of contacts per each of ``threads``
+    tasks (:func:`contact_range`).
 
     ``out = (on_second, books, broke)``: the force on each second node (for the
     gather), the step's friction / fluid / bond work per contact and whether it
-    broke; the caller sums and lists them in contact order. (Chunks call a serial
+    broke; the caller sums and lists them in contact order. (Tasks call a serial
     function: numba dropped the state writes of an inlined update inside ``prange``.)
     """
     n = contacts.nodes.shape[0]
-    for j in prange((n + CONTACT_CHUNK - 1) // CONTACT_CHUNK):
-        contact_range(nodes, contacts, state, dt, allow_failure, j * CONTACT_CHUNK,
-                      min(n, (j + 1) * CONTACT_CHUNK), out, out[2])
+    for t in prange(threads):
+        contact_range(nodes, contacts, state, dt, allow_failure, t * n // threads,
+                      (t + 1) * n // threads, out, out[2])
 
 
 @njit(cache=True, parallel=True)
-def block_element_forces(nodes, elements, state, adjacency):
-    """Zero ``nodes.force`` and add the cells' internal forces, a block per task.
+def block_element_forces(nodes, elements, state, adjacency, threads):
+    """Zero ``nodes.force`` and add the cells' internal forces, a run of blocks per thread.
 
-    Blocks share no node (:class:`grainfrac.physics.records.Adjacency`) and each adds
-    its cells in ascending order, so every node's force is bit for bit the serial
-    :func:`element_forces`'. (Each task calls a serial kernel: numba dropped the state
-    writes of an inlined update inside ``prange``.)
+    Blocks share no node (:class:`grainfrac.physics.records.Adjacency`); each of
+    ``threads`` tasks takes the consecutive blocks nearest its share of the cells and
+    adds them in ascending order, so every node's force is bit for bit the serial
+    :func:`element_forces`'. One call per thread: a call per block made the 2D
+    parallel step slower than the serial one. (Each task calls a serial kernel: numba
+    dropped the state writes of an inlined update inside ``prange``.)
     """
     force = nodes.force
     for n in prange(force.shape[0]):
         force[n, :] = 0.0
     blocks = adjacency.block_ptr
-    for b in prange(blocks.shape[0] - 1):
+    cells = blocks[-1]
+    for t in prange(threads):
+        first = blocks[np.searchsorted(blocks, t * cells // threads)]
+        stop = blocks[np.searchsorted(blocks, (t + 1) * cells // threads)]
         if elements.grad.shape[2] == 2:
-            triangle.range_forces(nodes.u, elements, state, blocks[b], blocks[b + 1], force)
+            triangle.range_forces(nodes.u, elements, state, first, stop, force)
         else:
-            tetrahedron.range_forces(nodes.u, elements, state, blocks[b], blocks[b + 1], force)
+            tetrahedron.range_forces(nodes.u, elements, state, first, stop, force)
 
 
 def _gather_contact_forces_for(d):
@@ -555,8 +557,8 @@ def run_steps(control, nodes, loads, elements, element_state, contacts, contact_
     injection, else none) have a fluid pressure that follows their void at every
     step (:func:`pore_spring_pressure`).
 
-    With ``control.parallel`` the cells, contacts and nodes are updated on all of
-    numba's threads: cells add their forces into their nodes a block of grains per task,
+    With ``control.threads`` above 1 the cells, contacts and nodes are updated on that
+    many threads: cells add their forces into their nodes a block of grains per task,
     contacts write theirs per contact and each contact node gathers them through
     ``adjacency`` in the serial order, so the motion, stresses and cracks are bit for
     bit those of the serial path; only the energy books' sums over nodes are reduced
@@ -568,7 +570,8 @@ def run_steps(control, nodes, loads, elements, element_state, contacts, contact_
     n_failed_total = 0
     n_contacts = contacts.nodes.shape[0]
     failed_now = np.empty(n_contacts, dtype=np.int64)
-    parallel = control.parallel
+    threads = control.threads
+    parallel = threads > 1
     if parallel:
         on_second = np.empty((n_contacts, d))
         contact_books = np.empty((n_contacts, 3))
@@ -580,7 +583,7 @@ def run_steps(control, nodes, loads, elements, element_state, contacts, contact_
             e = expanding[i]
             element_state.eigenstrain[e] += rate[e] * dt
         if parallel:
-            block_element_forces(nodes, elements, element_state, adjacency)
+            block_element_forces(nodes, elements, element_state, adjacency, threads)
         else:
             nodes.force[:, :] = 0.0
             element_forces(nodes, elements, element_state, nodes.force)
@@ -595,7 +598,7 @@ def run_steps(control, nodes, loads, elements, element_state, contacts, contact_
             pore_spring_pressure(nodes.u, contacts, pores, contact_state.pressure)
         if parallel:
             contact_updates(nodes, contacts, contact_state, dt, control.allow_failure,
-                            (on_second, contact_books, broke))
+                            (on_second, contact_books, broke), threads)
             gather_contact_forces(nodes.force, adjacency, on_second)
             w_fric = 0.0
             w_fluid = 0.0

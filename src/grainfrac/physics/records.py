@@ -34,7 +34,7 @@ class StepControl(NamedTuple):
     damping: float  # local damping coefficient alpha
     allow_failure: bool  # False holds intact bonds elastic
     velocity_limit: float  # m/s; beyond it the run has blown up
-    parallel: bool  # update cells, contacts and nodes on all of numba's threads
+    threads: int  # above 1: update cells, contacts and nodes on this many threads
 
 
 class NodeState(NamedTuple):

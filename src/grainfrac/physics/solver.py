@@ -251,7 +251,7 @@ class MechanicsSolver:
             numba.set_num_threads(self.threads)  # per calling thread; cheap
         n_new, done = kernels.run_steps(
             StepControl(int(n_steps), m.dt, self.damping, bool(self.allow_failure),
-                        float(self.velocity_limit), self.threads > 1),
+                        float(self.velocity_limit), self.threads),
             self.node_state(), NodeLoads(m.mass, ld.external, ld.fixed, ld.prescribed_velocity),
             m.elements, self.element_state(), m.contacts, self.contact_state(), m.adjacency,
             platens,

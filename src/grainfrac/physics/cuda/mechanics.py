@@ -110,7 +110,7 @@ class CudaMechanics:
         s, m = self.solver, self.solver.model
         return stepper.run_steps_cuda(
             StepControl(int(n_steps), m.dt, s.damping, bool(s.allow_failure),
-                        float(s.velocity_limit), False),
+                        float(s.velocity_limit), 1),
             self._nodes, self._loads, self._elements, self._element_state, self._contacts,
             self._contact_state, self._platens, self._pores_device(), self._energies,
             self._cracks, tpb=self.tpb, sync_every=max(int(n_steps), 1), timings=timings,
