@@ -110,6 +110,28 @@ def test_cell_blocks_share_no_node_and_cover_every_cell():
     assert list(cell_blocks(model.n_nodes, grain)) == [0, len(grain)]
 
 
+def test_cell_forces_by_any_number_of_tasks_are_the_serial_forces():
+    """Each task takes the blocks nearest its share of the cells; with more tasks than
+    blocks some get none. The forces and stresses stay the serial kernel's."""
+    from grainfrac.physics import kernels
+    from grainfrac.physics.cuda.synthetic import grain_block, pull_loads
+
+    block = grain_block(6, size=6e-3, cuts=3)
+    solver = MechanicsSolver(block.model, pull_loads(block, (1.0, 0.0, 0.0)))
+    solver.cycle(50)
+    model = solver.model
+    nodes, state = solver.node_state(), solver.element_state()
+    serial = np.zeros_like(nodes.force)
+    kernels.element_forces(nodes, model.elements, state, serial)
+    serial_stress = state.stress.copy()
+    for tasks in (1, 2, 3, 5, 9):
+        nodes.force[:] = np.nan
+        state.stress[:] = np.nan
+        kernels.block_element_forces(nodes, model.elements, state, model.adjacency, tasks)
+        assert np.array_equal(nodes.force, serial), tasks
+        assert np.array_equal(state.stress, serial_stress), tasks
+
+
 def test_threads_option_is_checked_before_any_compute(monkeypatch):
     from typer.testing import CliRunner
 
