@@ -558,7 +558,7 @@ def run_steps(control, nodes, loads, elements, element_state, contacts, contact_
     step (:func:`pore_spring_pressure`).
 
     With ``control.threads`` above 1 the cells, contacts and nodes are updated on that
-    many threads: cells add their forces into their nodes a block of grains per task,
+    many threads: each thread adds a run of grain blocks' cell forces into their nodes,
     contacts write theirs per contact and each contact node gathers them through
     ``adjacency`` in the serial order, so the motion, stresses and cracks are bit for
     bit those of the serial path; only the energy books' sums over nodes are reduced

@@ -68,8 +68,8 @@ class Adjacency(NamedTuple):
     """How the parallel step adds forces into nodes without races, in the serial order.
 
     Cells come in blocks of consecutive cells, ``block_ptr[b]`` to ``block_ptr[b + 1]``,
-    that share no node: one thread per block adds each cell's forces straight into its
-    nodes in the serial kernel's order. Meshes list their cells grain by grain and
+    that share no node: a thread takes a run of blocks and adds each cell's forces
+    straight into its nodes in the serial kernel's order. Meshes list their cells grain by grain and
     grains meet only through sub-contacts (two distinct nodes), so blocks end at grain
     ends. Node ``contact_node[i]``'s sub-contacts are
     ``contact_slot[contact_ptr[i]:contact_ptr[i + 1]]`` as ``2 c + side`` (side 1: the
