@@ -82,8 +82,8 @@ class Adjacency(NamedTuple):
     contact_slot: np.ndarray
 
 
-# Cell blocks of the parallel step: enough to balance any thread count up to about this,
-# few enough that a block's call costs nothing beside its cells.
+# Cell blocks of the parallel step: the places where a thread's run of cells may end;
+# enough to balance any thread count up to about this.
 CELL_BLOCKS = 64
 
 

@@ -82,24 +82,27 @@ def node_force(elements, e, k, vol, sxx, syy, szz, syz, sxz, sxy):
             vol * (gx * sxz + gy * syz + gz * szz))
 
 
-@njit(cache=True, inline="always")
-def add_cell_forces(u, elements, state, e, force):
-    """Store tetrahedron ``e``'s stress and subtract V B_k^T sigma from its nodes' forces."""
-    sxx, syy, szz, syz, sxz, sxy = stress(u, elements, state, e)
-    vol = elements.measure[e]
+@njit(cache=True)
+def range_forces(u, elements, state, first, stop, force):
+    """:func:`internal_forces` of the tetrahedra ``first`` to ``stop - 1``."""
+    # Unsigned: a signed index from a runtime start gets a negative-index check per
+    # access (12 % slower on a 2D slab).
     out = state.stress
-    out[e, 0] = sxx
-    out[e, 1] = syy
-    out[e, 2] = szz
-    out[e, 3] = syz
-    out[e, 4] = sxz
-    out[e, 5] = sxy
-    for k in range(4):
-        n = elements.cells[e, k]
-        fx, fy, fz = node_force(elements, e, k, vol, sxx, syy, szz, syz, sxz, sxy)
-        force[n, 0] -= fx
-        force[n, 1] -= fy
-        force[n, 2] -= fz
+    for e in range(np.uint64(first), np.uint64(stop)):
+        sxx, syy, szz, syz, sxz, sxy = stress(u, elements, state, e)
+        vol = elements.measure[e]
+        out[e, 0] = sxx
+        out[e, 1] = syy
+        out[e, 2] = szz
+        out[e, 3] = syz
+        out[e, 4] = sxz
+        out[e, 5] = sxy
+        for k in range(4):
+            n = elements.cells[e, k]
+            fx, fy, fz = node_force(elements, e, k, vol, sxx, syy, szz, syz, sxz, sxy)
+            force[n, 0] -= fx
+            force[n, 1] -= fy
+            force[n, 2] -= fz
 
 
 @njit(cache=True)
@@ -108,17 +111,7 @@ def internal_forces(u, elements, state, force):
 
     f_a = -V B_a^T sigma with V the volume; ``stress[e] = (sxx, syy, szz, syz, sxz, sxy)``.
     """
-    for e in range(elements.cells.shape[0]):
-        add_cell_forces(u, elements, state, e, force)
-
-
-@njit(cache=True)
-def range_forces(u, elements, state, first, stop, force):
-    """:func:`internal_forces` of the tetrahedra ``first`` to ``stop - 1``."""
-    # Unsigned: a signed index from a runtime start gets a negative-index check per
-    # access (12 % slower than internal_forces on a 2D slab).
-    for e in range(np.uint64(first), np.uint64(stop)):
-        add_cell_forces(u, elements, state, e, force)
+    range_forces(u, elements, state, 0, elements.cells.shape[0], force)
 
 
 @njit(cache=True)

@@ -73,21 +73,24 @@ def node_force(elements, e, k, vol, sxx, syy, sxy):
     return vol * (g0 * sxx + g1 * sxy), vol * (g0 * sxy + g1 * syy)
 
 
-@njit(cache=True, inline="always")
-def add_cell_forces(u, elements, state, e, force):
-    """Store triangle ``e``'s stress and subtract V B_k^T sigma from its nodes' forces."""
-    sxx, syy, sxy, szz = stress(u, elements, state, e)
-    vol = elements.measure[e]
+@njit(cache=True)
+def range_forces(u, elements, state, first, stop, force):
+    """:func:`internal_forces` of the triangles ``first`` to ``stop - 1``."""
+    # Unsigned: a signed index from a runtime start gets a negative-index check per
+    # access (12 % slower on a 2D slab).
     out = state.stress
-    out[e, 0] = sxx
-    out[e, 1] = syy
-    out[e, 2] = sxy
-    out[e, 3] = szz
-    for k in range(3):
-        n = elements.cells[e, k]
-        fx, fy = node_force(elements, e, k, vol, sxx, syy, sxy)
-        force[n, 0] -= fx
-        force[n, 1] -= fy
+    for e in range(np.uint64(first), np.uint64(stop)):
+        sxx, syy, sxy, szz = stress(u, elements, state, e)
+        vol = elements.measure[e]
+        out[e, 0] = sxx
+        out[e, 1] = syy
+        out[e, 2] = sxy
+        out[e, 3] = szz
+        for k in range(3):
+            n = elements.cells[e, k]
+            fx, fy = node_force(elements, e, k, vol, sxx, syy, sxy)
+            force[n, 0] -= fx
+            force[n, 1] -= fy
 
 
 @njit(cache=True)
@@ -98,17 +101,7 @@ def internal_forces(u, elements, state, force):
     szz)``. Written with fixed loop bounds: dimension-generic loops were 8 x slower
     on the default slab (1451 vs 171 us per call).
     """
-    for e in range(elements.cells.shape[0]):
-        add_cell_forces(u, elements, state, e, force)
-
-
-@njit(cache=True)
-def range_forces(u, elements, state, first, stop, force):
-    """:func:`internal_forces` of the triangles ``first`` to ``stop - 1``."""
-    # Unsigned: a signed index from a runtime start gets a negative-index check per
-    # access (12 % slower than internal_forces on a 2D slab).
-    for e in range(np.uint64(first), np.uint64(stop)):
-        add_cell_forces(u, elements, state, e, force)
+    range_forces(u, elements, state, 0, elements.cells.shape[0], force)
 
 
 @njit(cache=True)
