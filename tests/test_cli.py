@@ -105,3 +105,13 @@ def test_analyse_rejects_a_circle_inside_the_borehole(tmp_path):
     assert "radius_mm" in result.output and "> 5 mm" in result.output
     missing = runner.invoke(app, ["analyse", str(tmp_path / "nope")])
     assert missing.exit_code == 2 and "not a run directory" in missing.output
+
+
+def test_verify_zone_size_is_checked_before_any_compute():
+    # A case without a zone size, and a size out of range: one line naming the option.
+    result = runner.invoke(app, ["verify", "cubic-law", "--zone-size", "1.4"])
+    assert result.exit_code == 2
+    assert "--zone-size" in result.output and "cubic-law" in result.output
+    result = runner.invoke(app, ["verify", "kirsch3d", "--zone-size", "0.1"])
+    assert result.exit_code == 2
+    assert "--zone-size" in result.output

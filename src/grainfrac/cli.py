@@ -181,21 +181,32 @@ def verify(
     json_rows: Annotated[bool, typer.Option(
         "--json", help="One JSON object per compared quantity instead of a table.")] = False,
     seed: Annotated[int, typer.Option(help="Seed of the grain structure.")] = 0,
+    zone_size: Annotated[float | None, typer.Option(
+        "--zone-size", min=0.5, max=10.0,
+        help="Zone size of the case's mesh (mm), for the cases built on one zone size "
+             "(kirsch, lame, patch3d, lame3d, kirsch3d, kirsch3d-plane-strain); default: "
+             "the case's own.")] = None,
 ) -> None:
     """Compare a simulation with its analytical solution; exit 1 if any quantity fails."""
+    import inspect
     import json
 
     from grainfrac.verification import CASES, all_passed, comparison_table
 
     if name not in CASES:
         _fail(ValueError(f"unknown verification case {name!r}; known: {', '.join(CASES)}"))
+    options: dict[str, float] = {"seed": seed}
+    if zone_size is not None:
+        if "zone_size_mm" not in inspect.signature(CASES[name]).parameters:
+            _fail(ValueError(f"--zone-size: the case {name!r} does not take a zone size"))
+        options["zone_size_mm"] = zone_size
     start = time.perf_counter()
     try:
         if json_rows:
-            comparisons = CASES[name](seed=seed)
+            comparisons = CASES[name](**options)
         else:
             with console.status(f"running verification case {name}..."):
-                comparisons = CASES[name](seed=seed)
+                comparisons = CASES[name](**options)
     except (GrainfracError, OSError) as exc:
         _fail(exc)
     wall = time.perf_counter() - start
@@ -203,8 +214,9 @@ def verify(
         for c in comparisons:
             typer.echo(json.dumps(c.as_row()))
     else:
+        zones = "" if zone_size is None else f", {zone_size:g} mm zones"
         console.print(comparison_table(
-            comparisons, title=f"verification: {name} (seed {seed}, {wall:.1f} s)"))
+            comparisons, title=f"verification: {name} (seed {seed}{zones}, {wall:.1f} s)"))
     raise typer.Exit(code=0 if all_passed(comparisons) else 1)
 
 

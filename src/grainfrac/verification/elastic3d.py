@@ -384,6 +384,7 @@ def kirsch3d(sigma_x: float = CASE2[0], sigma_y: float = CASE2[1], sigma_z: floa
     return rows
 
 
-def kirsch3d_plane_strain(seed: int = 0, **options) -> list[Comparison]:
+def kirsch3d_plane_strain(seed: int = 0, *, zone_size_mm: float = 2.0,
+                          **options) -> list[Comparison]:
     """:func:`kirsch3d` with rollers on the top and bottom faces (plane strain)."""
-    return kirsch3d(seed=seed, plane_strain=True, **options)
+    return kirsch3d(seed=seed, zone_size_mm=zone_size_mm, plane_strain=True, **options)
