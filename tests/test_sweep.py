@@ -260,6 +260,13 @@ def test_points_paths_and_stress_overrides():
         "stress.sigma_x_MPa", "rock.weibull.shape", "stress.case", "fissures.fraction",
         "fissures.clear_radius_mm")
     assert plan.point("fissured").runs[0].scenario["fissures"]["clear_radius_mm"] == 8.0
+
+
+def test_sigma_z_override_keeps_the_case_values_in_3d():
+    plan = load_sweep(Path(__file__).resolve().parents[1] / "examples" / "sweeps"
+                      / "hs-3d-sigma-z.toml")
+    assert [p.runs[0].scenario["stress"] for p in plan.points] == [
+        {"sigma_x_MPa": 2.5, "sigma_y_MPa": 5.0, "sigma_z_MPa": sz} for sz in (1.0, 5.0, 10.0)]
     assert sweep_mod.SweepConfig.model_validate(
         {"base": "x.toml", "realisations": 3}).n_realisations == 3
 

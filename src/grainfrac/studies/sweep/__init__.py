@@ -25,8 +25,8 @@ path or a bad value is one :class:`~grainfrac.errors.ConfigError` naming the
 sweep field (``parameters.0.path``, ``parameters.1.values.2``, ``points.3.set``).
 
 Setting ``stress.case`` replaces the base's stress values; setting
-``stress.sigma_x_MPa`` / ``sigma_y_MPa`` alone drops the base's case and keeps
-its other value. Paths into ``rock`` or an SCDA stage's ``scda`` write the
+``stress.sigma_x_MPa`` / ``sigma_y_MPa`` / ``sigma_z_MPa`` alone drops the base's
+case and keeps its other values. Paths into ``rock`` or an SCDA stage's ``scda`` write the
 preset inline first, so ``rock.weibull.shape`` can be varied.
 
 Output directory::

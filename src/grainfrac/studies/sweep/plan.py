@@ -30,7 +30,7 @@ __all__ = [
 ]
 
 
-_STRESS_VALUES = ("sigma_x_MPa", "sigma_y_MPa")
+_STRESS_VALUES = ("sigma_x_MPa", "sigma_y_MPa", "sigma_z_MPa")
 
 
 @dataclass(frozen=True, eq=False)
@@ -207,8 +207,10 @@ def apply_overrides(base: _Base, overrides: dict[str, Any]) -> dict[str, Any]:
             for key in _STRESS_VALUES:
                 stress.pop(key, None)
         elif sigmas and "stress.case" not in overrides:
-            sx, sy = base.scenario.stress.resolved()
-            data["stress"] = {"sigma_x_MPa": sx, "sigma_y_MPa": sy, **sigmas}
+            # The case's values stand for the ones not set (sigma_z acts in 3D only).
+            kept = _STRESS_VALUES if base.scenario.dimension == 3 else _STRESS_VALUES[:2]
+            resolved = base.scenario.stress.model_dump(include=set(kept))
+            data["stress"] = {**resolved, **sigmas}
     return data
 
 
