@@ -5,9 +5,11 @@ from __future__ import annotations
 
 import json
 import math
+import re
 
 import numpy as np
 import pytest
+from headless_chromium import CHROMIUM, assert_renders
 from kill_resume import comparable, killed_then_resumed
 from scipy.integrate import quad
 
@@ -21,6 +23,7 @@ from grainfrac.physics.solver import MechanicsSolver
 from grainfrac.scenario import Scenario
 from grainfrac.simulation import run_scenario
 from grainfrac.units import MPA
+from grainfrac.viz.report import build_report
 
 SLAB = {"dimension": 3, "seed": 1,
         "specimen": {"shape": "slab", "width_mm": 30, "height_mm": 30, "thickness_mm": 8}}
@@ -152,6 +155,17 @@ def test_3d_scenario_breaks_down_with_closed_books(reference):
     header = (out / "cracks.csv").read_text().splitlines()[0]
     assert header.endswith("z_mm,normal_z,area_mm2")
     assert json.loads((out / "summary.json").read_text())["dimension"] == 3
+
+
+def test_3d_report_embeds_the_sections_and_the_crack_view(reference, tmp_path):
+    out, _ = reference
+    page = tmp_path / "report.html"
+    build_report([out], page)
+    text = page.read_text()
+    for figure in ("fracture sections", "fractures3d", "well pressure"):
+        assert re.search(rf'<img [^>]*alt="[^"]*: {figure}"', text), figure
+    if CHROMIUM is not None:  # installed by .ci/run
+        assert_renders(page, tmp_path)
 
 
 @pytest.mark.slow  # two more 3D runs; keeps the default suite near 10 min
