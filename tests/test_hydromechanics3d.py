@@ -150,6 +150,7 @@ def test_3d_scenario_breaks_down_with_closed_books(reference):
     assert -0.10 * books["pumped"] < books["residual"] < 0.15 * books["pumped"]
     assert summary["n_radial_fractures_top"] >= 1
     assert summary["fracture_area_m2"] > 0
+    assert summary["injection_stop_reason"] == "0.5 ms after breakdown"
     for name in ("fractures3d.png", "fracture_sections.png", "well_pressure.png"):
         assert (out / "figures" / name).stat().st_size > 10_000
     header = (out / "cracks.csv").read_text().splitlines()[0]

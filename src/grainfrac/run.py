@@ -425,11 +425,12 @@ class Run(Hooks):
         self._maybe_snapshot(force=True)
         self.checkpoint()
         i = self.stages.index(stage)
+        reason = getattr(stage.state, "stop_reason", None)
         log.info("stage %d/%d %s done at t = %.4f ms (stage %.4f ms, %.0f s wall), "
-                 "%d cracks", i + 1, len(self.stages), stage.kind, self.solver.time * 1e3,
+                 "%d cracks%s", i + 1, len(self.stages), stage.kind, self.solver.time * 1e3,
                  (self.solver.time - stage.state.start_time) * 1e3,
                  wallclock.monotonic() - self._stage_wall_start,
-                 int(self.world.rock_cracks().sum()))
+                 int(self.world.rock_cracks().sum()), f"; stopped: {reason}" if reason else "")
         self._stage_wall_start = wallclock.monotonic()
         self._stop_if_asked()
 

@@ -91,6 +91,7 @@ def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
         "peak_well_pressure_MPa": None,
         "peak_expansive_pressure_MPa": None,
         "scda_stop_reason": None,
+        "injection_stop_reason": None,
         "injected_volume_ml": None,
     }
     if coupled is not None:
@@ -109,6 +110,9 @@ def summarise(run: Run, wall_time_s: float) -> dict[str, Any]:
     if charge is not None:
         out["peak_expansive_pressure_MPa"] = charge.state.peak_pressure / 1e6
         out["scda_stop_reason"] = charge.state.stop_reason
+    injections = [st for st in run.stages if st.kind == "inject" and st.state.stop_reason]
+    if injections:
+        out["injection_stop_reason"] = injections[-1].state.stop_reason
     connect = 1.5 * a.mesh.zone_size
     if a.dimension == 3:
         # The paper counts fractures and measures tortuosity on the top face (Sect. 5.3);

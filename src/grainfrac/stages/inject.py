@@ -62,6 +62,7 @@ class InjectState:
     fraction: float = 0.0
     peak_well_pressure: float = 0.0  # Pa
     breakdown_after: float = -1.0  # s from the stage start; -1 before breakdown
+    stop_reason: str | None = None  # once the stage has ended
 
 
 @dataclass
@@ -91,9 +92,10 @@ class Inject:
         world.coupled.advance(min(spec.time_step, left), spec.rate)
         st.chunks += 1
         elapsed = world.solver.time - st.start_time
-        st.done = elapsed >= planned - 1e-12
+        if elapsed >= planned - 1e-12:
+            st.stop_reason = "planned duration"
         if spec.stop_at_boundary and fracture_at_boundary(world):
-            st.done = True
+            st.stop_reason = "fracture reached the specimen's boundary"
         if spec.stop_after_breakdown_ms is not None:
             p = world.coupled.well_pressure
             if st.breakdown_after < 0.0:
@@ -101,7 +103,8 @@ class Inject:
                 if p < (1.0 - BREAKDOWN_DROP_FRACTION) * st.peak_well_pressure:
                     st.breakdown_after = elapsed
             elif elapsed >= st.breakdown_after + spec.stop_after_breakdown_ms * 1e-3:
-                st.done = True
+                st.stop_reason = f"{spec.stop_after_breakdown_ms:g} ms after breakdown"
+        st.done = st.stop_reason is not None
         st.fraction = min(1.0, elapsed / planned)
 
     def finished(self) -> bool:
