@@ -165,6 +165,7 @@ def test_3d_report_embeds_the_sections_and_the_crack_view(reference, tmp_path):
     text = page.read_text()
     for figure in ("fracture sections", "fractures3d", "well pressure"):
         assert re.search(rf'<img [^>]*alt="[^"]*: {figure}"', text), figure
+    assert "radial fractures, mid-plane (3D)" in text and "ms after breakdown" in text
     if CHROMIUM is not None:  # installed by .ci/run
         assert_renders(page, tmp_path)
 

@@ -32,6 +32,7 @@ KEY_ROWS = [
     ("peak well pressure (MPa)", "peak_well_pressure_MPa", "{:.2f}"),
     ("peak expansive pressure (MPa)", "peak_expansive_pressure_MPa", "{:.1f}"),
     ("radial fractures", "n_radial_fractures", "{}"),
+    ("radial fractures, mid-plane (3D)", "n_radial_fractures_mid", "{}"),
     ("fracture extent (mm)", "fracture_extent_mm", "{:.1f}"),
     ("cracks", "n_cracks", "{}"),
     ("tensile cracks", "n_tensile_cracks", "{}"),
@@ -42,10 +43,13 @@ KEY_ROWS = [
     ("shear strain energy released (J)", "energy_shear_J", "{:.3e}"),
     ("frictional work (J)", "energy_friction_J", "{:.3e}"),
     ("injected volume (ml)", "injected_volume_ml", "{:.4f}"),
+    ("injection stopped by", "injection_stop_reason", "{}"),
     ("grains / elements / contacts", None, None),
     ("seed", "seed", "{}"),
     ("wall time (s)", "wall_time_s", "{:.1f}"),
 ]
+# Rows left out where no run has a value (3D-only keys, keys older runs lack).
+OPTIONAL_KEYS = {"n_radial_fractures_mid", "injection_stop_reason"}
 
 
 @dataclass
@@ -183,6 +187,7 @@ def _table(runs: list[RunRecord]) -> str:
         f"<tr><td>{html.escape(label)}</td>"
         + "".join(f"<td>{_fmt(r.summary, key, spec)}</td>" for r in runs) + "</tr>"
         for label, key, spec in KEY_ROWS
+        if key not in OPTIONAL_KEYS or any(r.summary.get(key) is not None for r in runs)
     )
     return f"<table><thead><tr><th>quantity</th>{head}</tr></thead><tbody>{body}</tbody></table>"
 
