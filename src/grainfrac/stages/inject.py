@@ -58,7 +58,7 @@ def fracture_at_boundary(world: World) -> bool:
 class InjectState:
     start_time: float = 0.0
     chunks: int = 0
-    done: bool = False
+    done: bool = False  # stop_reason is not None; kept so that older checkpoints resume
     fraction: float = 0.0
     peak_well_pressure: float = 0.0  # Pa
     breakdown_after: float = -1.0  # s from the stage start; -1 before breakdown
