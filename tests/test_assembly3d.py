@@ -95,12 +95,19 @@ def test_grain_size_bounds_move_grain_count_and_median_edge():
         ({**SLAB, "specimen": {"shape": "rectangle", "width_mm": 12, "height_mm": 24,
                                "thickness_mm": 12},
           "grains": {"min_edge_mm": 3, "max_edge_mm": 6}}, "grains.max_edge_mm"),
+        ({**SLAB, "grains": {"wall_zone_size_mm": 3}}, "grains.wall_zone_size_mm"),
+        ({**SLAB, "specimen": {"shape": "penny"}, "grains": {"wall_zone_size_mm": 1}},
+         "grains.wall_zone_size_mm"),
+        ({**SLAB, "dimension": 2, "grains": {"wall_zone_size_mm": 1}},
+         "grains.wall_zone_size_mm"),
     ],
     ids=["borehole-too-wide", "thinner-than-a-zone", "penny-in-2d", "unknown-shape",
          "bad-dimension", "disc-wider-than-half-the-block", "disc-below-two-zones",
          "cylinder-thickness-not-its-diameter", "disk-below-two-zones",
          "notch-deeper-than-0.8-radius", "notch-narrower-than-half-a-zone",
-         "supports-in-the-notch", "fewer-grains-than-a-tetrahedron"],
+         "supports-in-the-notch", "fewer-grains-than-a-tetrahedron",
+         "wall-zones-coarser-than-the-zones", "wall-zones-without-a-borehole",
+         "wall-zones-in-2d"],
 )
 def test_bad_3d_specs_fail_with_one_line_naming_the_field(data, field):
     with pytest.raises(ConfigError) as info:

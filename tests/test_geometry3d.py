@@ -10,6 +10,7 @@ from grainfrac.errors import GeometryError
 from grainfrac.geometry.meshing3d import mesh_grains3d, penny_injection_node, penny_plane_contacts
 from grainfrac.geometry.solids3d import box_solid, penny_solid
 from grainfrac.geometry.tessellation3d import tessellate3d
+from grainfrac.geometry.zone_sizes import ZoneSizes
 
 ZONE = 2e-3
 
@@ -148,3 +149,49 @@ def test_penny_tets_fill_the_block(penny_mesh):
 def test_penny_functions_refuse_other_specimens(slab_mesh):
     with pytest.raises(GeometryError, match="not a penny"):
         penny_plane_contacts(slab_mesh)
+
+
+# -- zones refined at the borehole wall ------------------------------------------------
+
+def test_zone_sizes_grow_from_the_wall_to_the_far_size():
+    zones = ZoneSizes(2e-3, 1e-3, wall_radius=5e-3, reach=5e-3)
+    r = np.array([5e-3, 10e-3, 12.5e-3, 15e-3, 40e-3])
+    h = zones.of_points(np.column_stack((r, np.zeros(5), np.zeros(5))))
+    assert np.allclose(h, [1e-3, 1e-3, 1.5e-3, 2e-3, 2e-3])
+    assert ZoneSizes(2e-3).uniform and ZoneSizes(2e-3).smallest == 2e-3
+    with pytest.raises(ValueError, match="wall zone size"):
+        ZoneSizes(2e-3, 3e-3, 5e-3, 5e-3)
+
+
+@pytest.fixture(scope="module")
+def refined_slab_mesh():
+    zones = ZoneSizes(ZONE, 1e-3, wall_radius=5e-3, reach=3e-3)
+    solid = box_solid("slab", 30, 30, 8, 10, zones.wall)
+    cx = tessellate3d(solid, 3e-3, 8e-3, zones, np.random.default_rng(4))
+    return mesh_grains3d(cx, zones, np.random.default_rng(5), (3e-3, 8e-3))
+
+
+def test_refined_wall_mesh_is_exact_and_conforming(refined_slab_mesh):
+    m = refined_slab_mesh
+    assert m.grains.solid.borehole_facets == 32  # one per wall zone of circumference
+    assert m.wall_zone_size == 1e-3 and m.zone_size == ZONE
+    vol = m.element_volumes()
+    assert abs(vol.sum() / m.grains.solid.volume - 1) < 1e-9
+    assert np.all(vol > 0)
+    cx = m.grains
+    faces = cx.interface_faces()
+    summed = np.bincount(m.contact_face, weights=m.contact_area, minlength=len(cx.faces))
+    assert np.max(np.abs(summed[faces] / cx.face_areas()[faces] - 1)) < 1e-9
+    m.record().validated()
+
+
+def test_refined_wall_mesh_has_small_zones_at_the_wall_only(refined_slab_mesh):
+    m = refined_slab_mesh
+    x = m.node_x[m.element_nodes]
+    edges = np.stack([np.linalg.norm(x[:, j] - x[:, i], axis=1)
+                      for i, j in ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3))], axis=1)
+    r = np.hypot(x[..., 0], x[..., 1]).min(axis=1) - 5e-3  # nearest corner to the wall
+    wall, far = edges[r < 1e-3].mean(), edges[r > 10e-3].mean()
+    print(f"mean tet edge at the wall {wall * 1e3:.2f} mm, beyond 10 mm {far * 1e3:.2f} mm")
+    assert 0.8e-3 < wall < 1.3e-3
+    assert 1.6e-3 < far < 2.6e-3

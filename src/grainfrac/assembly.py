@@ -37,6 +37,7 @@ from grainfrac.geometry.specimens import (
 )
 from grainfrac.geometry.tessellation import tessellate
 from grainfrac.geometry.tessellation3d import TooFewGrains, tessellate3d
+from grainfrac.geometry.zone_sizes import ZoneSizes
 from grainfrac.io.config import StrictModel, read_toml, source_path, validate
 from grainfrac.units import MM
 
@@ -54,6 +55,12 @@ class GrainSpec(StrictModel):
         2.0, gt=0, description="element (zone) edge length [mm]; <= max_edge_mm")
     lloyd_iterations: int = Field(
         30, ge=0, le=1000, description="Lloyd relaxation steps of the Voronoi seeds")
+    wall_zone_size_mm: float = Field(
+        0.0, ge=0, description="zone edge on the borehole wall [mm], 3D slabs only; "
+        "<= zone_size_mm; 0: zone_size_mm everywhere")
+    wall_zone_reach_mm: float = Field(
+        5.0, gt=0, le=100, description="band beside the borehole wall meshed at "
+        "wall_zone_size_mm [mm]; zones grow back to zone_size_mm over a second band as wide")
 
     @model_validator(mode="after")
     def _ordered(self) -> GrainSpec:
@@ -66,6 +73,11 @@ class GrainSpec(StrictModel):
             raise ValueError(
                 f"zone_size_mm: must be <= max_edge_mm ({self.max_edge_mm:g}), "
                 f"got {self.zone_size_mm:g}"
+            )
+        if self.wall_zone_size_mm > self.zone_size_mm:
+            raise ValueError(
+                f"wall_zone_size_mm: must be <= zone_size_mm ({self.zone_size_mm:g}), "
+                f"got {self.wall_zone_size_mm:g}"
             )
         return self
 
@@ -120,6 +132,12 @@ class SpecimenConfig(StrictModel):
                              f"(one of {', '.join(shapes)})")
         if self.dimension == 3:
             _check_3d(spec, self.grains.zone_size_mm)
+        if self.grains.wall_zone_size_mm > 0 and (
+                self.dimension != 3 or spec.shape != "slab" or spec.borehole_diameter_mm <= 0):
+            raise ValueError(
+                "grains.wall_zone_size_mm: only for a 3D slab with a borehole (dimension = 3, "
+                f"specimen.shape = 'slab', borehole_diameter_mm > 0); got a {self.dimension}D "
+                f"{spec.shape!r}")
         clear = self.fissures.clear_radius_mm
         if clear > 0:
             if getattr(spec, "borehole_diameter_mm", 0.0) <= 0:
@@ -354,8 +372,11 @@ def _build_assembly3d(config: SpecimenConfig, recipe: materials.RockRecipe) -> G
     if recipe.intragranular is not None:
         raise ConfigError("rock", "breakable grains (intragranular) are 2D only for now")
     rngs = _random_streams(config.seed)
-    zone = config.grains.zone_size_mm * MM
-    solid = specimen_solid(config.specimen, zone)
+    g = config.grains
+    wall = g.wall_zone_size_mm * MM or None
+    solid = specimen_solid(config.specimen, g.zone_size_mm * MM, wall)
+    zone = ZoneSizes(g.zone_size_mm * MM, wall, float(solid.borehole_radius),
+                     g.wall_zone_reach_mm * MM)
     try:
         cx = tessellate3d(solid, config.grains.min_edge_mm * MM,
                           config.grains.max_edge_mm * MM, zone, rngs["tessellation"])

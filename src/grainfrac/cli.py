@@ -186,6 +186,10 @@ def verify(
         help="Zone size of the case's mesh (mm), for the cases built on one zone size "
              "(kirsch, lame, patch3d, lame3d, kirsch3d, kirsch3d-plane-strain); default: "
              "the case's own.")] = None,
+    wall_zone_size: Annotated[float | None, typer.Option(
+        "--wall-zone-size", min=0.2, max=10.0,
+        help="Zone size on the borehole wall (mm), refined over 5 mm beside it "
+             "(kirsch3d, kirsch3d-plane-strain); default: the zone size.")] = None,
 ) -> None:
     """Compare a simulation with its analytical solution; exit 1 if any quantity fails."""
     import inspect
@@ -200,6 +204,10 @@ def verify(
         if "zone_size_mm" not in inspect.signature(CASES[name]).parameters:
             _fail(ValueError(f"--zone-size: the case {name!r} does not take a zone size"))
         options["zone_size_mm"] = zone_size
+    if wall_zone_size is not None:
+        if "wall_zone_size_mm" not in inspect.signature(CASES[name]).parameters:
+            _fail(ValueError(f"--wall-zone-size: the case {name!r} does not refine its wall"))
+        options["wall_zone_size_mm"] = wall_zone_size
     start = time.perf_counter()
     try:
         if json_rows:
@@ -215,6 +223,8 @@ def verify(
             typer.echo(json.dumps(c.as_row()))
     else:
         zones = "" if zone_size is None else f", {zone_size:g} mm zones"
+        if wall_zone_size is not None:
+            zones += f", {wall_zone_size:g} mm at the wall"
         console.print(comparison_table(
             comparisons, title=f"verification: {name} (seed {seed}{zones}, {wall:.1f} s)"))
     raise typer.Exit(code=0 if all_passed(comparisons) else 1)

@@ -110,7 +110,8 @@ def _grains_only_step(x, cells, e, nu, rho, model_from_arrays) -> float:
 
 def stable_steps3d(assembly: GrainAssembly) -> dict[str, float]:
     """Stable time steps (s) of a 3D assembly and their ratio to a regular zone-size
-    tetrahedron of quartz (recipe table values).
+    tetrahedron of quartz (recipe table values; the wall's zone size where the zones
+    are refined at the borehole).
 
     ``grains`` is the real-mass step of the tetrahedra alone (the mesh's own limit),
     ``with_contacts`` adds the contact springs (Table 2 stiffnesses), ``run`` is the
@@ -121,7 +122,7 @@ def stable_steps3d(assembly: GrainAssembly) -> dict[str, float]:
     mesh = assembly.mesh
     mtab = assembly.mineral_table
     q = list(mtab.names).index("quartz") if "quartz" in mtab.names else 0
-    ref = regular_tetrahedron_step(mesh.zone_size, float(mtab.youngs_modulus_Pa[q]),
+    ref = regular_tetrahedron_step(mesh.wall_zone_size, float(mtab.youngs_modulus_Pa[q]),
                                    float(mtab.poisson_ratio[q]), float(mtab.density_kg_m3[q]))
     rec = mesh.record()
     grains = _grains_only_step(rec.x, rec.cells, assembly.element_youngs_modulus,
@@ -153,6 +154,8 @@ def specimen_summary3d(assembly: GrainAssembly, wall_time_s: float | None = None
         "specimen": cx.solid.kind,
         "size_mm": [float(v) * 1e3 for v in cx.solid.extent],
         "borehole_facets": cx.solid.borehole_facets,
+        "zone_size_mm": mesh.zone_size * 1e3,
+        "wall_zone_size_mm": mesh.wall_zone_size * 1e3,
         "rock": assembly.recipe.name,
         **_counts(assembly),
         "n_fluid_nodes": mesh.flow.n_nodes,
@@ -162,7 +165,8 @@ def specimen_summary3d(assembly: GrainAssembly, wall_time_s: float | None = None
         "dihedral_p1_deg": float(np.percentile(dihedral, 1)),
         "shortest_edge_mm": spec_edges,
         "edges_breaking_rule": short_edge_report(
-            cx, assembly_min_edge(assembly), assembly_max_edge(assembly), mesh.zone_size),
+            cx, assembly_min_edge(assembly), assembly_max_edge(assembly),
+            mesh.zone_sizes or mesh.zone_size),
         "smallest_element_mm3": float(volumes.min()) * 1e9,
         "stable_step": steps,
         "volume_percent": _volume_percent(assembly),
@@ -182,7 +186,11 @@ def assembly_max_edge(assembly: GrainAssembly) -> float:
 def quality_rows3d(summary: dict[str, Any]) -> list[tuple[str, str]]:
     """Mesh-quality lines of the printed 3D table."""
     s = summary["stable_step"]
-    return [
+    zones = []
+    if summary.get("wall_zone_size_mm", 0) != summary.get("zone_size_mm", 0):
+        zones = [("zone size (mm)", f"{summary['zone_size_mm']:g}, "
+                                    f"{summary['wall_zone_size_mm']:g} at the borehole wall")]
+    return zones + [
         ("min dihedral angle (deg)", f"{summary['min_dihedral_angle_deg']:.2f}"),
         ("shortest grain edge (mm)", f"{summary['shortest_edge_mm']:.3f}"),
         ("tet volume error (relative)", f"{summary['volume_relative_error']:.1e}"),

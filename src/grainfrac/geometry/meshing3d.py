@@ -36,6 +36,7 @@ from grainfrac.errors import GeometryError
 from grainfrac.geometry.mesh import Mesh, contact_frame, simplex_measure, tet_volumes
 from grainfrac.geometry.solids3d import BOREHOLE
 from grainfrac.geometry.tessellation3d import GrainComplex, _cross, disc_faces
+from grainfrac.geometry.zone_sizes import ZoneSizes, as_zone_sizes
 
 _EDGE_JITTER = 0.1  # fraction of a piece / of the zone size
 _FACE_CLEARANCE = 0.5  # x zone: face lattice points kept this far inside the face
@@ -124,6 +125,12 @@ class GrainMesh3D:
     flow: FaceFlowGraph
     node_sets: dict[str, np.ndarray] = field(default_factory=dict)
     surface_triangles: dict[str, np.ndarray] = field(default_factory=dict)  # node ids
+    zone_sizes: ZoneSizes | None = None  # when refined near the borehole; else zone_size
+
+    @property
+    def wall_zone_size(self) -> float:
+        """Zone size on the borehole wall (m): ``zone_size`` unless refined there."""
+        return self.zone_size if self.zone_sizes is None else self.zone_sizes.smallest
 
     @property
     def n_nodes(self) -> int:
@@ -248,7 +255,7 @@ def tet_quality(p: np.ndarray) -> np.ndarray:
     return 6.0 * math.sqrt(2.0) * vol / l2 ** 1.5
 
 
-def mesh_grains3d(cx: GrainComplex, zone_size: float, rng: np.random.Generator,
+def mesh_grains3d(cx: GrainComplex, zone_size: float | ZoneSizes, rng: np.random.Generator,
                   grain_bounds: tuple[float, float] = (0.0, np.inf)) -> GrainMesh3D:
     """Mesh every piece into tetrahedra; build sub-contacts and the face flow graph.
 
@@ -257,14 +264,15 @@ def mesh_grains3d(cx: GrainComplex, zone_size: float, rng: np.random.Generator,
     cx
         The grain complex.
     zone_size
-        Target tetrahedron edge (m).
+        Target tetrahedron edge (m), or a :class:`ZoneSizes` that refines the zones
+        near the borehole (each edge, face and piece at its own size).
     rng
         Random generator for the point displacements (general position).
     grain_bounds
         The (min, max) grain edge lengths the tessellation was asked for (m), kept
         for reports.
     """
-    h = zone_size
+    zones = as_zone_sizes(zone_size)
     points = _PointBuffer(cx.vertices)
     n_pts = len(cx.vertices)
 
@@ -273,6 +281,7 @@ def mesh_grains3d(cx: GrainComplex, zone_size: float, rng: np.random.Generator,
     edge_pts: dict[tuple[int, int], np.ndarray] = {}
     for u, v in pairs.tolist():
         a, b = cx.vertices[u], cx.vertices[v]
+        h = zones.at(cx.vertices[[u, v]])
         n = max(1, math.ceil(np.linalg.norm(b - a) / h - 1e-9))
         t = (np.arange(1, n) + rng.uniform(-_EDGE_JITTER, _EDGE_JITTER, n - 1)) / n
         points.add(a + t[:, None] * (b - a))
@@ -287,6 +296,7 @@ def mesh_grains3d(cx: GrainComplex, zone_size: float, rng: np.random.Generator,
         e1, e2 = _plane_basis(cx.face_normal[f], cx.vertices[ring[0]] - origin)
         bxyz = points[loop]
         b2 = np.column_stack(((bxyz - origin) @ e1, (bxyz - origin) @ e2))
+        h = zones.at(cx.vertices[ring])
         inner = _face_lattice(b2, h, rng)
         ids = np.concatenate((loop, np.arange(n_pts, n_pts + len(inner))))
         if len(inner):
@@ -313,7 +323,8 @@ def mesh_grains3d(cx: GrainComplex, zone_size: float, rng: np.random.Generator,
         fl = cx.piece_faces[p]
         bnd = np.unique(np.concatenate([face_point_ids[f] for f in fl]))
         bxyz = points[bnd]
-        interior = _cell_lattice(cx, p, h, rng)
+        vid = np.unique(np.concatenate([cx.faces[f] for f in fl]))
+        interior = _cell_lattice(cx, p, zones.at(cx.vertices[vid]), rng)
         local_x, tets = _tetrahedralise(bxyz, interior, p)
         ids = np.concatenate((bnd, np.arange(n_pts, n_pts + len(local_x) - len(bnd))))
         if len(local_x) > len(bnd):
@@ -323,7 +334,7 @@ def mesh_grains3d(cx: GrainComplex, zone_size: float, rng: np.random.Generator,
         piece_ids.append(ids)
         piece_tets.append(ids[tets])
     pts = points.array()
-    return _assemble(cx, h, pts, face_point_ids, face_tris, face_point_area, piece_tets,
+    return _assemble(cx, zones, pts, face_point_ids, face_tris, face_point_area, piece_tets,
                      grain_bounds)
 
 
@@ -463,9 +474,10 @@ def _check_conforming(tets: np.ndarray, face_tris: list[np.ndarray], piece: int)
         )
 
 
-def _assemble(cx, h, pts, face_point_ids, face_tris, face_point_area, piece_tets,
+def _assemble(cx, zones, pts, face_point_ids, face_tris, face_point_area, piece_tets,
               grain_bounds) -> GrainMesh3D:
     """Nodes per grain, elements, sub-contacts, flow graph and node sets."""
+    h = zones.far
     grain_of_piece = cx.piece_grain
     tet_pts = np.vstack(piece_tets)
     tet_piece = np.repeat(np.arange(cx.n_pieces), [len(t) for t in piece_tets])
@@ -546,6 +558,7 @@ def _assemble(cx, h, pts, face_point_ids, face_tris, face_point_area, piece_tets
         flow=flow,
         node_sets=node_sets,
         surface_triangles=surface,
+        zone_sizes=None if zones.uniform else zones,
     )
 
 

@@ -376,8 +376,11 @@ def semi_disk_solid(diameter_mm: float, thickness_mm: float, notch_length_mm: fl
                  facet_side="arc", section_area=area, parts=parts, notch=notch, lines=lines)
 
 
-def specimen_solid(spec, zone_size: float) -> Solid:
+def specimen_solid(spec, zone_size: float, wall_zone_size: float | None = None) -> Solid:
     """The 3D solid of a specimen schema (millimetres in, metres out).
+
+    A slab's borehole is faceted at ``wall_zone_size`` when given (zones refined at
+    the wall), else at ``zone_size``.
 
     ``slab``: box with a borehole along z; ``penny``: the cut cube; ``rectangle``:
     the cylinder it is the section of (diameter = width, axis along z, length =
@@ -388,7 +391,7 @@ def specimen_solid(spec, zone_size: float) -> Solid:
     shape = spec.shape
     if shape == "slab":
         return box_solid("slab", spec.width_mm, spec.height_mm, spec.thickness_mm,
-                         spec.borehole_diameter_mm, zone_size)
+                         spec.borehole_diameter_mm, wall_zone_size or zone_size)
     if shape == "penny":
         return penny_solid(spec.size_mm, spec.disc_diameter_mm, zone_size)
     if shape == "rectangle":

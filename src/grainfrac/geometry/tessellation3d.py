@@ -45,6 +45,7 @@ from scipy.spatial import Delaunay, HalfspaceIntersection, QhullError, cKDTree
 
 from grainfrac.errors import GeometryError
 from grainfrac.geometry.solids3d import BOREHOLE, Solid, polygon_normals
+from grainfrac.geometry.zone_sizes import ZoneSizes, as_zone_sizes
 
 _MERGE_TOL = 1e-9  # m: vertices computed twice by Qhull agree to ~1e-16 m
 _MESH_MIN_EDGE = 0.4  # x zone size: shortest edge the mesher accepts
@@ -237,7 +238,7 @@ def tessellate3d(
     solid: Solid,
     min_edge: float,
     max_edge: float,
-    zone_size: float,
+    zone_size: float | ZoneSizes,
     rng: np.random.Generator,
     *,
     jitter: float = 0.4,
@@ -252,7 +253,8 @@ def tessellate3d(
     min_edge, max_edge
         Bounds on interior grain edge length (m).
     zone_size
-        Mesh zone size (m); no edge may be shorter than 0.4 of it.
+        Mesh zone size (m), or the zone sizes near a borehole; no edge may be shorter
+        than 0.4 of the zone size where it lies (at its end nearer the borehole axis).
     rng
         Random generator; the only source of randomness.
     jitter
@@ -763,7 +765,8 @@ _LOCAL_BUDGET = 300
 
 def _local_repair(cx: GrainComplex, seeds: np.ndarray, base: np.ndarray,
                   grain_of_seed: np.ndarray, seed_ring: np.ndarray, ring: slice, a: float,
-                  zone_size: float, jitter: float, rng: np.random.Generator) -> GrainComplex:
+                  zone_size: float | ZoneSizes, jitter: float, rng: np.random.Generator
+                  ) -> GrainComplex:
     """Move lattice seeds one at a time off the junctions that make short edges.
 
     On a faceted surface (or the penny's plane and disc) a grain edge ends at a
@@ -779,7 +782,7 @@ def _local_repair(cx: GrainComplex, seeds: np.ndarray, base: np.ndarray,
     judged (the cells are uncut), only found as the next sweep's seeds.
     """
     solid = cx.solid
-    limit = _MESH_MIN_EDGE * zone_size
+    limit = _MESH_MIN_EDGE * as_zone_sizes(zone_size).smallest
     n_lat = len(base)
     cells = _LocalCells(solid, ring)
     best, best_score = cx, _complex_score(cx, limit)
@@ -948,11 +951,21 @@ def _order_polygon(p: np.ndarray, normal: np.ndarray, ids: np.ndarray) -> np.nda
     return ids[np.argsort(ang)]
 
 
-def _violations(cx: GrainComplex, min_edge: float, max_edge: float, zone_size: float
-                ) -> tuple[np.ndarray, float]:
+def _mesh_bound(cx: GrainComplex, pairs: np.ndarray, zone_size: float | ZoneSizes
+                ) -> np.ndarray | float:
+    """Shortest edge the mesher accepts (m), per edge where the zones are refined."""
+    zones = as_zone_sizes(zone_size)
+    if zones.uniform:
+        return _MESH_MIN_EDGE * zones.far
+    ends = zones.of_points(cx.vertices[pairs.ravel()]).reshape(-1, 2)
+    return _MESH_MIN_EDGE * ends.min(axis=1)
+
+
+def _violations(cx: GrainComplex, min_edge: float, max_edge: float,
+                zone_size: float | ZoneSizes) -> tuple[np.ndarray, float]:
     """Pieces around edges that break the short-edge rule, and the shortest edge (m)."""
     pairs, length, interior = cx.edge_classes()
-    bad = (length < _MESH_MIN_EDGE * zone_size)
+    bad = (length < _mesh_bound(cx, pairs, zone_size))
     bad |= interior & ((length < min_edge) | (length > max_edge))
     if not bad.any():
         return np.empty(0, dtype=np.int64), float(length.min())
@@ -961,12 +974,12 @@ def _violations(cx: GrainComplex, min_edge: float, max_edge: float, zone_size: f
     return np.unique(around[around >= 0]), float(length.min())
 
 
-def short_edge_report(cx: GrainComplex, min_edge: float, max_edge: float, zone_size: float
-                      ) -> dict[str, int]:
+def short_edge_report(cx: GrainComplex, min_edge: float, max_edge: float,
+                      zone_size: float | ZoneSizes) -> dict[str, int]:
     """Counts of edges that still break the rule after the repair rounds."""
-    _, length, interior = cx.edge_classes()
+    pairs, length, interior = cx.edge_classes()
     return {
-        "below_mesh_bound": int(np.sum(length < _MESH_MIN_EDGE * zone_size)),
+        "below_mesh_bound": int(np.sum(length < _mesh_bound(cx, pairs, zone_size))),
         "interior_below_min": int(np.sum(interior & (length < min_edge))),
         "interior_above_max": int(np.sum(interior & (length > max_edge))),
     }
