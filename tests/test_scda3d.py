@@ -89,6 +89,23 @@ def test_wall_sub_contacts_pair_coincident_nodes_and_cover_the_wall(slab, fill):
                        atol=1e-12)
 
 
+def test_plug_fills_a_borehole_with_refined_wall_zones():
+    # 1 mm zones at the wall: 32 facets, and the plug meshed at the wall's zone size.
+    slab = build_specimen({**SLAB, "grains": {"wall_zone_size_mm": 1.0}})
+    fill = scda.scda_fill(slab, materials.load_scda("scda"))
+    mesh = slab.mesh
+    assert mesh.grains.solid.borehole_facets == 32
+    volume = tet_volumes(fill.node_xy[fill.element_nodes])
+    assert np.all(volume > 0)
+    assert volume.sum() == pytest.approx(
+        mesh.grains.solid.borehole_area * mesh.borehole_length, rel=1e-9)
+    assert fill.wall_area.sum() == pytest.approx(_lateral_area(slab), rel=1e-9)
+    assert np.array_equal(np.unique(fill.wall_rock_node),
+                          np.unique(mesh.surface_triangles["borehole"]))
+    edges = np.linalg.norm(np.diff(fill.node_xy[fill.element_nodes], axis=1), axis=2)
+    assert np.median(edges) < 1.3e-3
+
+
 def test_block_sub_contacts_pair_coincident_corners_of_shared_faces(fill):
     a, b = fill.joint_nodes.T
     assert np.array_equal(fill.node_xy[a], fill.node_xy[b])

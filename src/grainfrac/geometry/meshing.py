@@ -100,6 +100,11 @@ class GrainMesh:
     fluid_node_sets: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
+    def wall_zone_size(self) -> float:
+        """Zone size at the borehole wall (m); 2D meshes use one zone size throughout."""
+        return self.zone_size
+
+    @property
     def n_nodes(self) -> int:
         return len(self.node_xy)
 

@@ -183,10 +183,11 @@ def build_flow_network(
             mouth_of_node[wall_nodes] = np.arange(len(wall_nodes))
             mouths = Mouths(unknown=unknown[wall_nodes].copy(),
                             contact_mouth=mouth_of_node[mesh.contact_fluid_node],
-                            length=MOUTH_LENGTH_ZONES * mesh.zone_size,
+                            length=MOUTH_LENGTH_ZONES * mesh.wall_zone_size,
                             # 2D: the node stands for the whole slab thickness; 3D: a
                             # zone of the grain boundary's line on the wall
-                            width=mesh.thickness if mesh.dimension == 2 else mesh.zone_size,
+                            width=(mesh.thickness if mesh.dimension == 2
+                                   else mesh.wall_zone_size),
                             is_open=np.zeros(len(wall_nodes), dtype=bool))
         else:
             keep = np.ones(n_nodes, dtype=bool)

@@ -243,7 +243,7 @@ def scda_fill3d(assembly: GrainAssembly, recipe: ScdaRecipe) -> ScdaFill:
     wall_tri = mesh.surface_triangles.get(BOREHOLE)
     if not solid.has_borehole or wall_tri is None or len(wall_tri) == 0:
         raise GeometryError("SCDA needs a specimen with a borehole")
-    h = mesh.zone_size
+    h = mesh.wall_zone_size  # the plug fills the borehole, meshed as its wall is
     apothem = solid.apothem
     facet_normal = solid.facet_normals()
     z0, z1 = float(solid.lo[2]), float(solid.hi[2])
