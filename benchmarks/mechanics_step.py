@@ -19,8 +19,9 @@ cache, one thread like the kernels) measured in the same process.
 
 With ``--compare-src DIR`` (a ``src`` folder of another checkout, e.g. the
 commit before a change) the same measurement also runs on that code, in
-subprocesses interleaved with runs of this checkout's code (best of each), and
-the two step rates are printed side by side.
+subprocesses interleaved with runs of this checkout's code, and the two step
+rates are printed side by side with their round-by-round ratio (mean and 95 %
+interval).
 
 With ``--dim 3`` it times the 3D step instead: synthetic tetrahedral blocks
 cut into bonded slab grains (``grainfrac.physics.cuda.synthetic.grain_block``,
@@ -228,10 +229,19 @@ def step_rates(sizes: list[float], steps: int, repeats: int, seed: int) -> list[
 
 def compare(src: Path, sizes: list[float], steps: int, repeats: int, seed: int,
             rounds: int = 3) -> None:
-    """Step rates of this code and of the code under ``src``, interleaved subprocesses."""
+    """Step rates of this code and of the code under ``src``, interleaved subprocesses.
+
+    Prints the best rate of each and the ratio of the bests, and the ratio round by
+    round (each round runs both codes back to back, so a slow spell of the machine
+    hits both): its mean and 95 % t-interval say whether a difference exceeds the
+    machine's own spread. Running it with ``src`` = this checkout's ``src`` measures that
+    spread.
+    """
+    from scipy import stats
+
     here = Path(__file__).resolve()
     this_src = here.parents[1] / "src"
-    best: dict[str, list[float]] = {"this": [0.0] * len(sizes), "other": [0.0] * len(sizes)}
+    runs: dict[str, list[list[float]]] = {"this": [], "other": []}
     for _ in range(rounds):
         for label, path in (("this", this_src), ("other", src)):
             env = {**os.environ, "PYTHONPATH": str(path)}
@@ -239,13 +249,22 @@ def compare(src: Path, sizes: list[float], steps: int, repeats: int, seed: int,
                 [sys.executable, str(here), "--rates-only", "--steps", str(steps),
                  "--repeats", str(repeats), "--seed", str(seed), "--sizes",
                  *map(str, sizes)], env=env, check=True, capture_output=True, text=True)
-            rates = json.loads(out.stdout.strip().splitlines()[-1])
-            best[label] = [max(a, b) for a, b in zip(best[label], rates, strict=True)]
-    print(f"\nstep rate, this code ({this_src}) vs {src}; best of {rounds} interleaved "
-          f"subprocesses x {repeats} calls of {steps} steps")
-    print(f"{'slab':>8}{'this steps/s':>14}{'other steps/s':>15}{'ratio':>8}")
-    for factor, a, b in zip(sizes, best["this"], best["other"], strict=True):
-        print(f"{f'x{factor:g}':>8}{a:>14.0f}{b:>15.0f}{a / b:>8.3f}")
+            runs[label].append(json.loads(out.stdout.strip().splitlines()[-1]))
+    this, other = np.array(runs["this"]), np.array(runs["other"])
+    paired = this / other  # (rounds, sizes)
+    print(f"\nstep rate, this code ({this_src}) vs {src}; {rounds} interleaved rounds of "
+          f"subprocesses x best of {repeats} calls of {steps} steps")
+    print(f"{'slab':>8}{'this steps/s':>14}{'other steps/s':>15}{'ratio':>8}"
+          f"{'paired ratio, mean [95 % CI]':>32}  per round")
+    for k, factor in enumerate(sizes):
+        a, b, r = this[:, k].max(), other[:, k].max(), paired[:, k]
+        if rounds > 1:
+            half = stats.t.ppf(0.975, rounds - 1) * r.std(ddof=1) / math.sqrt(rounds)
+            interval = f"{r.mean():.3f} [{r.mean() - half:.3f}, {r.mean() + half:.3f}]"
+        else:
+            interval = f"{r.mean():.3f}"
+        print(f"{f'x{factor:g}':>8}{a:>14.0f}{b:>15.0f}{a / b:>8.3f}{interval:>32}  "
+              + " ".join(f"{x:.3f}" for x in r))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -260,7 +279,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--compare-src", type=Path, default=None,
                         help="also time the code under this src folder (e.g. an old checkout)")
     parser.add_argument("--rounds", type=int, default=5,
-                        help="interleaved subprocess pairs of --compare-src (best of each)")
+                        help="interleaved subprocess pairs of --compare-src")
     parser.add_argument("--rates-only", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--dim", type=int, choices=(2, 3), default=2,
                         help="2: the default slab's step; 3: synthetic tetrahedral blocks")

@@ -1,10 +1,9 @@
 """Target zone size of a 3D mesh: uniform, or finer near a borehole along the z axis.
 
 A linear tetrahedron's stress is constant, so the stress concentration at a
-borehole wall converges as the square of the zone size there (the Kirsch hoop
-stress's cos 2 theta amplitude: 13 % low at 2 mm zones, 6 % at 1.4 mm on a 10 mm
-hole). Refining the whole specimen costs the cube of the ratio in zones and its
-first power again in time step; refining the wall alone costs a ring of grains.
+borehole wall converges with the zone size there. Refining the whole specimen
+costs the cube of the ratio in zones and its first power again in time step;
+refining the wall alone costs a ring of grains.
 
 The size is chosen per mesh entity (grain edge, grain face, convex piece) at its
 vertex nearest the borehole axis, so every point is still made once on the cell
