@@ -538,8 +538,11 @@ def verification_tables(data: dict[str, Any]) -> str:
     for case in data["cases"]:
         rows = case["rows"]
         passed = sum(r["passed"] for r in rows)
-        lines += [f"### `grainfrac verify {case['case']}`", "",
-                  f"{passed} of {len(rows)} quantities within tolerance.", "",
+        command = " ".join(["grainfrac verify", case["case"], *case.get("options", [])])
+        wall = case.get("wall_time_s")
+        took = f" ({wall / 60:.1f} min)" if wall else ""
+        lines += [f"### `{command}`", "",
+                  f"{passed} of {len(rows)} quantities within tolerance{took}.", "",
                   "| quantity | simulated | analytical | relative error | tolerance | passed |",
                   "|---|---|---|---|---|---|"]
         for r in rows:
@@ -561,7 +564,8 @@ def verification_figure(data: dict[str, Any]) -> bytes:
     for case in data["cases"]:
         for r in case["rows"]:
             err, tol = r["relative_error"], r["tolerance"]
-            labels.append(f"{case['case']}: {r['quantity']}")
+            name = " ".join([case["case"], *case.get("options", [])])
+            labels.append(f"{name}: {r['quantity']}")
             ratios.append(math.nan if err is None or not tol else err / tol)
             colours.append("tab:green" if r["passed"] else "tab:red")
     fig, ax = plt.subplots(figsize=(8, 0.28 * len(labels) + 1.2))

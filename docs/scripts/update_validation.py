@@ -5,11 +5,12 @@ them is typed by hand. Three sources, one subcommand each::
 
     python docs/scripts/update_validation.py verify            # grainfrac verify --json
     python docs/scripts/update_validation.py verify --kgd      # ... and the KGD cases (~5 min)
+    python docs/scripts/update_validation.py verify --3d       # ... and the 3D cases (~45 min)
     python docs/scripts/update_validation.py claims            # the slow paper-claim tests
     python docs/scripts/update_validation.py study DIR         # a `grainfrac study paper` run
 
-``verify`` runs ``grainfrac verify CASE --json`` for each case and writes
-``docs/data/verification.json``. ``claims`` runs ``pytest -m slow
+``verify`` runs ``grainfrac verify CASE --json`` for each case (``--jobs N`` at a time)
+and writes ``docs/data/verification.json``. ``claims`` runs ``pytest -m slow
 tests/test_paper_claims.py`` (tens of minutes on 2 cores; its sweeps are kept in
 ``--cache``, so a second call computes only what is missing) and writes
 ``docs/data/paper-claims.json``. ``study`` copies the verdicts of a finished
@@ -20,6 +21,7 @@ tests/test_paper_claims.py`` (tens of minutes on 2 cores; its sweeps are kept in
 from __future__ import annotations
 
 import argparse
+import concurrent.futures
 import csv
 import datetime
 import json
@@ -31,8 +33,11 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT / "docs" / "data"
-FAST_CASES = ("kirsch", "lame", "cubic-law")
-KGD_CASES = ("kgd", "kgd-toughness")
+FAST_CASES = (("kirsch",), ("lame",), ("cubic-law",))
+KGD_CASES = (("kgd",), ("kgd-toughness",))
+# The 3D cases, kirsch3d at its 2 mm zones and with 1 mm zones at the wall.
+CASES_3D = (("patch3d",), ("cubic-law3d",), ("lame3d",), ("kirsch3d",),
+            ("kirsch3d", "--wall-zone-size", "1"), ("penny",))
 
 
 def _version() -> str:
@@ -41,24 +46,32 @@ def _version() -> str:
     return grainfrac.__version__
 
 
-def verify(kgd: bool) -> Path:
+def verify(kgd: bool, three_d: bool, jobs: int = 1) -> Path:
     """Run the verification cases through the command line and keep their JSON rows."""
-    cases = [*FAST_CASES, *KGD_CASES] if kgd else list(FAST_CASES)
-    out = []
-    for case in cases:
-        start = time.perf_counter()
-        proc = subprocess.run([sys.executable, "-m", "grainfrac.cli", "verify", case, "--json"],
-                              capture_output=True, text=True, cwd=ROOT)
-        if proc.returncode not in (0, 1):  # 1: ran, some quantity out of tolerance
-            raise SystemExit(f"grainfrac verify {case} failed:\n{proc.stderr}")
-        rows = [json.loads(line) for line in proc.stdout.splitlines() if line.startswith("{")]
-        out.append({"case": case, "wall_time_s": time.perf_counter() - start, "rows": rows})
-        print(f"{case}: {sum(r['passed'] for r in rows)} of {len(rows)} passed")
-    command = "python docs/scripts/update_validation.py verify" + (" --kgd" if kgd else "")
+    cases = [*FAST_CASES, *(KGD_CASES if kgd else ()), *(CASES_3D if three_d else ())]
+    with concurrent.futures.ThreadPoolExecutor(max_workers=jobs) as pool:
+        out = list(pool.map(_verify_case, cases))
+    flags = (" --kgd" if kgd else "") + (" --3d" if three_d else "")
     path = DATA / "verification.json"
-    _write(path, {"command": command, "generated": datetime.date.today().isoformat(),
+    _write(path, {"command": f"python docs/scripts/update_validation.py verify{flags}",
+                  "generated": datetime.date.today().isoformat(),
                   "grainfrac_version": _version(), "cases": out})
     return path
+
+
+def _verify_case(case: tuple[str, ...]) -> dict:
+    """``grainfrac verify NAME [OPTIONS] --json`` in its own process, and its rows."""
+    name, *options = case
+    start = time.perf_counter()
+    proc = subprocess.run([sys.executable, "-m", "grainfrac.cli", "verify", name, *options,
+                           "--json"], capture_output=True, text=True, cwd=ROOT)
+    if proc.returncode not in (0, 1):  # 1: ran, some quantity out of tolerance
+        raise SystemExit(f"grainfrac verify {' '.join(case)} failed:\n{proc.stderr}")
+    rows = [json.loads(line) for line in proc.stdout.splitlines() if line.startswith("{")]
+    wall = time.perf_counter() - start
+    print(f"{' '.join(case)}: {sum(r['passed'] for r in rows)} of {len(rows)} passed "
+          f"({wall:.0f} s)", flush=True)
+    return {"case": name, "options": options, "wall_time_s": wall, "rows": rows}
 
 
 def claims(cache: Path) -> Path:
@@ -118,6 +131,9 @@ def main() -> None:
     sub = parser.add_subparsers(dest="what", required=True)
     v = sub.add_parser("verify", help="grainfrac verify CASE --json for every case")
     v.add_argument("--kgd", action="store_true", help="include the KGD cases (~5 min)")
+    v.add_argument("--3d", dest="three_d", action="store_true",
+                   help="include the 3D cases (~45 min on one core)")
+    v.add_argument("--jobs", type=int, default=1, help="cases run at the same time")
     c = sub.add_parser("claims", help="the slow paper-claim tests")
     c.add_argument("--cache", type=Path, default=ROOT / "build" / "claims",
                    help="where the claim sweeps are kept between calls")
@@ -128,7 +144,7 @@ def main() -> None:
                         "(e.g. '--dim 3 --realisations 2')")
     args = parser.parse_args()
     if args.what == "verify":
-        verify(args.kgd)
+        verify(args.kgd, args.three_d, max(1, args.jobs))
     elif args.what == "claims":
         claims(args.cache)
     else:

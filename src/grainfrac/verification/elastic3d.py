@@ -333,6 +333,10 @@ def kirsch3d(sigma_x: float = CASE2[0], sigma_y: float = CASE2[1], sigma_z: floa
     (Sternberg & Sadowsky 1949: a few percent on the mid-plane for a thickness of
     a few radii) is part of the measured error.
 
+    ``wall_zone_size_mm`` (``--wall-zone-size``) refines the zones at the borehole wall
+    (:class:`~grainfrac.geometry.zone_sizes.ZoneSizes`); the wall rows then read the
+    triangles within one wall zone of the mid-plane.
+
     With ``plane_strain`` (``grainfrac verify kirsch3d-plane-strain``) the top and
     bottom faces are rollers (their nodes held along z, ``sigma_z`` not applied):
     the slab is then in plane strain, where Kirsch is the exact solution at every
