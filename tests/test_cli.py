@@ -115,3 +115,7 @@ def test_verify_zone_size_is_checked_before_any_compute():
     result = runner.invoke(app, ["verify", "kirsch3d", "--zone-size", "0.1"])
     assert result.exit_code == 2
     assert "--zone-size" in result.output
+    # Only the 3D Kirsch cases refine their wall.
+    result = runner.invoke(app, ["verify", "kirsch", "--wall-zone-size", "1"])
+    assert result.exit_code == 2
+    assert "--wall-zone-size" in result.output and "kirsch" in result.output

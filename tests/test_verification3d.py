@@ -112,6 +112,17 @@ def test_kirsch3d_plane_strain_small_slab_wall():
     assert rows["hoop_stress_wall_90deg_MPa"].passed
 
 
+def test_kirsch3d_wall_within_5_percent_with_zones_refined_at_the_wall():
+    """Plane strain, 60 x 60 x 4 mm slab, seed 0, 2 mm zones with 1 mm at the wall.
+    Measured: 2.0 % / 2.6 % at 0 / 90 deg (2 mm throughout: 2.2 % / 18 %; 1 mm
+    throughout: 2.0 % / 3.4 %, five times the run time)."""
+    rows = {c.quantity: c for c in kirsch3d(width_mm=60.0, thickness_mm=4.0,
+                                            wall_zone_size_mm=1.0, plane_strain=True)}
+    for key in ("hoop_stress_wall_0deg_MPa", "hoop_stress_wall_90deg_MPa"):
+        print(rows[key].as_row())
+        assert rows[key].relative_error < 0.05
+
+
 @pytest.mark.slow  # 2 min
 def test_kirsch3d_wall_converges_with_the_zone_size():
     """Plane strain, 60 x 60 x 4 mm slab (b = 6 a), seed 0. Measured wall errors at 0 / 90
