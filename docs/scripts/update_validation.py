@@ -5,7 +5,7 @@ them is typed by hand. Three sources, one subcommand each::
 
     python docs/scripts/update_validation.py verify            # grainfrac verify --json
     python docs/scripts/update_validation.py verify --kgd      # ... and the KGD cases (~5 min)
-    python docs/scripts/update_validation.py verify --3d       # ... and the 3D cases (~45 min)
+    python docs/scripts/update_validation.py verify --3d       # ... and the 3D cases (~70 min)
     python docs/scripts/update_validation.py claims            # the slow paper-claim tests
     python docs/scripts/update_validation.py study DIR         # a `grainfrac study paper` run
 
@@ -35,9 +35,11 @@ ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT / "docs" / "data"
 FAST_CASES = (("kirsch",), ("lame",), ("cubic-law",))
 KGD_CASES = (("kgd",), ("kgd-toughness",))
-# The 3D cases, kirsch3d at its 2 mm zones and with 1 mm zones at the wall.
-CASES_3D = (("patch3d",), ("cubic-law3d",), ("lame3d",), ("kirsch3d",),
-            ("kirsch3d", "--wall-zone-size", "1"), ("penny",))
+# The 3D cases; kirsch3d at its 2 mm zones and with 1 mm zones at the wall, and in
+# plane strain (the discretisation alone) with 0.8 mm zones at the wall.
+CASES_3D = (("kirsch3d-plane-strain", "--wall-zone-size", "0.8"),
+            ("kirsch3d", "--wall-zone-size", "1"), ("kirsch3d",), ("penny",), ("lame3d",),
+            ("patch3d",), ("cubic-law3d",))
 
 
 def _version() -> str:
@@ -132,7 +134,7 @@ def main() -> None:
     v = sub.add_parser("verify", help="grainfrac verify CASE --json for every case")
     v.add_argument("--kgd", action="store_true", help="include the KGD cases (~5 min)")
     v.add_argument("--3d", dest="three_d", action="store_true",
-                   help="include the 3D cases (~45 min on one core)")
+                   help="include the 3D cases (~70 min on one core)")
     v.add_argument("--jobs", type=int, default=1, help="cases run at the same time")
     c = sub.add_parser("claims", help="the slow paper-claim tests")
     c.add_argument("--cache", type=Path, default=ROOT / "build" / "claims",
