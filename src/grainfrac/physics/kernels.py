@@ -191,9 +191,18 @@ def _contact_range_for(three):
             duy = u[b, 1] - u[a, 1]
             dvx = v[b, 0] - v[a, 0]
             dvy = v[b, 1] - v[a, 1]
-            u_n = dux * frame[c, 0, 0] + duy * frame[c, 0, 1]
-            v_n = dvx * frame[c, 0, 0] + dvy * frame[c, 0, 1]
-            v_s1 = dvx * frame[c, 1, 0] + dvy * frame[c, 1, 1]
+            nx = frame[c, 0, 0]
+            ny = frame[c, 0, 1]
+            if three:
+                tx = frame[c, 1, 0]
+                ty = frame[c, 1, 1]
+            else:
+                # 2D frames are (n, n rotated by +90 deg) exactly (mesh.contact_frame).
+                tx = -ny
+                ty = nx
+            u_n = dux * nx + duy * ny
+            v_n = dvx * nx + dvy * ny
+            v_s1 = dvx * tx + dvy * ty
             v_s2 = 0.0
             if three:
                 dvz = v[b, 2] - v[a, 2]
@@ -235,8 +244,8 @@ def _contact_range_for(three):
             # Traction on face b (first grain pushes b along +n when compressed).
             fn = (sn + pressure) * area
             fs1 = tau1 * area
-            fx = fn * frame[c, 0, 0] - fs1 * frame[c, 1, 0]
-            fy = fn * frame[c, 0, 1] - fs1 * frame[c, 1, 1]
+            fx = fn * nx - fs1 * tx
+            fy = fn * ny - fs1 * ty
             fz = 0.0
             if three:
                 tau[c, 1] = tau2
