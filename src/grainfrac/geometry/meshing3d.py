@@ -323,8 +323,7 @@ def mesh_grains3d(cx: GrainComplex, zone_size: float | ZoneSizes, rng: np.random
         fl = cx.piece_faces[p]
         bnd = np.unique(np.concatenate([face_point_ids[f] for f in fl]))
         bxyz = points[bnd]
-        vid = np.unique(np.concatenate([cx.faces[f] for f in fl]))
-        interior = _cell_lattice(cx, p, zones.at(cx.vertices[vid]), rng)
+        interior = _cell_lattice(cx, p, zones, rng)
         local_x, tets = _tetrahedralise(bxyz, interior, p)
         ids = np.concatenate((bnd, np.arange(n_pts, n_pts + len(local_x) - len(bnd))))
         if len(local_x) > len(bnd):
@@ -417,16 +416,18 @@ def _inside_convex_2d(poly: np.ndarray, q: np.ndarray) -> np.ndarray:
     return dist.min(axis=1) if len(q) else np.empty(0)
 
 
-def _cell_lattice(cx: GrainComplex, piece: int, h: float, rng: np.random.Generator
-                  ) -> np.ndarray:
+def _cell_lattice(cx: GrainComplex, piece: int, zones: ZoneSizes,
+                  rng: np.random.Generator) -> np.ndarray:
     """Body-centred lattice points (anchored at the origin) inside a piece, clear of its
-    faces, each displaced by up to 5 % of the spacing (Qhull then sees no ties)."""
+    faces, each displaced by up to 5 % of the spacing (Qhull then sees no ties); the
+    spacing follows the zone size at the piece's corner nearest the borehole axis."""
     fl = cx.piece_faces[piece]
     sign = np.where(cx.face_pieces[fl, 0] == piece, 1.0, -1.0)
     normal = cx.face_normal[fl] * sign[:, None]
     offset = np.array([normal[k] @ cx.vertices[cx.faces[f][0]] for k, f in enumerate(fl)])
     vid = np.unique(np.concatenate([cx.faces[f] for f in fl]))
     lo, hi = cx.vertices[vid].min(axis=0), cx.vertices[vid].max(axis=0)
+    h = zones.at(cx.vertices[vid])
     c = _BCC_SPACING * h
     out = []
     for shift in (0.0, 0.5):
