@@ -30,10 +30,12 @@ Usage (from the repository root, on a machine with an NVIDIA GPU)::
 from __future__ import annotations
 
 import argparse
+import cProfile
 import csv
 import datetime
 import json
 import os
+import pstats
 import signal
 import sys
 import threading
@@ -129,7 +131,8 @@ def cpu_step_time(assembly, scenario: Scenario, steps: int) -> tuple[float, int]
     return (time.perf_counter() - start) / steps, solver.threads
 
 
-def cube(out: Path, name: str, limit_s: float | None, cpu_steps: int) -> dict:
+def cube(out: Path, name: str, limit_s: float | None, cpu_steps: int,
+         profile: bool = False) -> dict:
     scenario = validate(Scenario, tomllib.loads(CUBE.read_text()))
     start = time.perf_counter()
     assembly = run_module.build_assembly(scenario.specimen_config(), scenario.recipe())
@@ -159,17 +162,27 @@ def cube(out: Path, name: str, limit_s: float | None, cpu_steps: int) -> dict:
         timer.start()
     start = time.perf_counter()
     stopped = None
+    profiler = cProfile.Profile() if profile else None
     try:
         with backend(name):
+            if profiler is not None:
+                profiler.enable()
             summary = run_scenario(scenario, scenario.recipe(), out / f"cube-{name}",
                                    overwrite=True, log_every_s=30.0)
     except RunInterrupted as exc:
         summary, stopped = None, str(exc)
     finally:
+        if profiler is not None:
+            profiler.disable()
         if timer is not None:
             timer.cancel()
         clock.restore()
         run_module.build_assembly = build_assembly
+    if profiler is not None:
+        profiler.dump_stats(out / f"cube-{name}.prof")
+        stats = pstats.Stats(profiler, stream=sys.stdout)
+        stats.sort_stats("tottime").print_stats(25)
+        stats.sort_stats("cumulative").print_stats("grainfrac", 45)
     total = time.perf_counter() - start + built_s
     rows = history(out / f"cube-{name}")
     steps = int(rows[-1]["step"]) if rows else 0
@@ -221,6 +234,9 @@ def main() -> None:
     parser.add_argument("--limit-s", type=float, help="stop the cube run after this long")
     parser.add_argument("--cpu-steps", type=int, default=20,
                         help="explicit steps of the cube model timed on the CPU (0: none)")
+    parser.add_argument("--profile", action="store_true",
+                        help="profile the cube run (cProfile): cube-BACKEND.prof in --out, "
+                             "and the top functions printed")
     args = parser.parse_args()
     say(f"# grainfrac whole-run GPU benchmark, "
         f"{datetime.datetime.now().isoformat(timespec='seconds')}, "
@@ -234,7 +250,8 @@ def main() -> None:
     if "same-answers" in args.what:
         results["same_answers"] = same_answers(args.out)
     if "cube" in args.what:
-        results["cube"] = cube(args.out, args.backend, args.limit_s, args.cpu_steps)
+        results["cube"] = cube(args.out, args.backend, args.limit_s, args.cpu_steps,
+                               args.profile)
     (args.out / "gpu_runs.json").write_text(json.dumps(results, indent=1, default=str))
 
 

@@ -19,8 +19,10 @@ The contacts are stepped inside ``mechanics.cycle`` (one kernel with the element
 
 ``--first-step SCENARIO`` times instead the first injection step's pressure solve of a
 scenario's specimen (the whole network conducting at the initial aperture, no
-mechanics), with the solve's factorisation ordered for a symmetric matrix (the code's)
-and with SuperLU's default column ordering, and prints both and the well pressures.
+mechanics) three ways: conjugate gradients started from zero (the code's solve from
+``pressure_system.ITERATIVE_MIN_UNKNOWNS`` unknowns up), the factorisation ordered for a
+symmetric matrix (the code's below that), and SuperLU's default column ordering; it
+prints each one's time and well pressure.
 
 Usage::
 
@@ -43,7 +45,7 @@ from scipy.sparse.linalg import splu
 from grainfrac.assembly import SpecimenConfig, build_assembly
 from grainfrac.io.config import validate
 from grainfrac.loading.insitu import STRESS_CASES, initialise_in_situ
-from grainfrac.physics import flow
+from grainfrac.physics import flow, pressure_system
 from grainfrac.physics.coupled import HydroMechanicalSolver
 from grainfrac.physics.model import build_mechanical_model
 from grainfrac.physics.solver import MechanicsSolver
@@ -117,20 +119,23 @@ def first_step(path: Path, rate_ml_per_min: float, dt: float) -> int:
     print(f"{path}: {assembly.mesh.n_elements} elements, {network.n_unknowns} pressure "
           f"unknowns (built in {time.perf_counter() - start:.1f} s); one step of {dt:g} s "
           f"at {rate_ml_per_min:g} ml/min")
-    ordered = flow._factorised
-    orderings = {"symmetric (minimum degree on A + A^T)": ordered,
-                 "SuperLU default (COLAMD)": splu}
+    ordered, threshold = pressure_system.factorised, pressure_system.ITERATIVE_MIN_UNKNOWNS
+    solves = {"conjugate gradients (Jacobi), from zero": (ordered, 0),
+              "symmetric (minimum degree on A + A^T)": (ordered, network.n_unknowns + 1),
+              "SuperLU default (COLAMD)": (splu, network.n_unknowns + 1)}
     try:
-        for label, factorise in orderings.items():
-            flow._factorised = factorise
+        for label, (factorise, smallest_iterative) in solves.items():
+            pressure_system.factorised = factorise
+            pressure_system.ITERATIVE_MIN_UNKNOWNS = smallest_iterative
             state = flow.initial_state(network, aperture, fluid)
             start = time.perf_counter()
             flow.implicit_step(network, state, aperture, dt, fluid,
                                rate_ml_per_min * ML_PER_MIN)
-            print(f"  {label:<40}{time.perf_counter() - start:8.2f} s, well pressure "
-                  f"{state.pressure[network.well_unknown]:.6g} Pa")
+            print(f"  {label:<42}{time.perf_counter() - start:8.2f} s, well pressure "
+                  f"{state.pressure[network.well_unknown]:.9g} Pa")
     finally:
-        flow._factorised = ordered
+        pressure_system.factorised = ordered
+        pressure_system.ITERATIVE_MIN_UNKNOWNS = threshold
     return 0
 
 

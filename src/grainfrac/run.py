@@ -36,7 +36,7 @@ from grainfrac.io.results import append_history, write_history
 from grainfrac.io.snapshots import PlugState, SnapshotSeries
 from grainfrac.materials import RockRecipe
 from grainfrac.physics.coupled import CoupledHistory
-from grainfrac.physics.fields import ring_mean_tangential_stress
+from grainfrac.physics.fields import Ring
 from grainfrac.physics.flow import FluidState
 from grainfrac.physics.model import build_mechanical_model
 from grainfrac.physics.solver import MechanicsSolver, NumericalBlowUp, resolve_backend
@@ -362,6 +362,7 @@ class Run(Hooks):
         self.snapshots = SnapshotSeries(self.out / "snapshots")
         mesh = self.assembly.mesh
         self._centroids = mesh.node_x[mesh.element_nodes].mean(axis=1)
+        self._near_well: Ring | None = None  # found at the first history row
         self._last_checkpoint = wallclock.monotonic()
         self._started = wallclock.monotonic()
         self.log_every_s = LOG_EVERY_S
@@ -492,11 +493,11 @@ class Run(Hooks):
         mesh = self.assembly.mesh
         if not mesh.has_borehole:
             return float("nan")
-        m = self.world.n_rock_elements
-        r = mesh.borehole_radius
-        return -ring_mean_tangential_stress(self._centroids, self.solver.stress[:m],
-                                            self.world.rock_model.element_area,
-                                            mesh.borehole_center, r, 2 * r)
+        if self._near_well is None:
+            r = mesh.borehole_radius
+            self._near_well = Ring(self._centroids, self.world.rock_model.element_area,
+                                   mesh.borehole_center, r, 2 * r)
+        return -self._near_well.mean_tangential_stress(self.solver.stress)
 
     def _record(self, stage: Stage) -> None:
         s, w = self.solver, self.world

@@ -52,10 +52,27 @@ def ring_mean_tangential_stress(points: np.ndarray, stress: np.ndarray, weights:
                                 outer: float) -> float:
     """Weighted mean hoop stress (Pa, tension positive) of points with inner <= r < outer
     (in 3D: distance from the axis through ``center`` along z; points may carry a z)."""
-    points = np.asarray(points)[:, :2]
-    r = np.hypot(*(points - np.asarray(center)).T)
-    ring = (r >= inner) & (r < outer)
-    if not ring.any():
-        return float("nan")
-    hoop = tangential_stress(points[ring], in_plane(stress[ring]), center)
-    return float(np.average(hoop, weights=weights[ring]))
+    return Ring(points, weights, center, inner, outer).mean_tangential_stress(stress)
+
+
+class Ring:
+    """The points with inner <= r < outer about ``center`` (in 3D: about the axis through
+    it along z), found once: a run reads their mean hoop stress after every chunk, and
+    finding them costs as much as the whole 3D stress field (1e6 tetrahedra)."""
+
+    def __init__(self, points: np.ndarray, weights: np.ndarray,
+                 center: tuple[float, float], inner: float, outer: float):
+        points = np.asarray(points)[:, :2]
+        r = np.hypot(*(points - np.asarray(center)).T)
+        self.index = np.flatnonzero((r >= inner) & (r < outer))
+        self.points = points[self.index]
+        self.weights = np.asarray(weights)[self.index]
+        self.center = center
+
+    def mean_tangential_stress(self, stress: np.ndarray) -> float:
+        """Weighted mean hoop stress (Pa, tension positive) of the ring's points, NaN if
+        it holds none; ``stress`` for all points."""
+        if len(self.index) == 0:
+            return float("nan")
+        hoop = tangential_stress(self.points, in_plane(stress[self.index]), self.center)
+        return float(np.average(hoop, weights=self.weights))

@@ -39,9 +39,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.linalg import splu
 
 from grainfrac.geometry.meshing import GrainMesh
+from grainfrac.physics import pressure_system
 
 #: How the borehole wall meets the grain boundaries that end on it
 #: (:func:`build_flow_network`).
@@ -542,7 +542,8 @@ def implicit_step(network: FlowNetwork, state: FluidState, aperture: np.ndarray,
                 low_rank = shared_compliance
     free = ~network.fixed
     p_new, state.dry = _solve_without_suction(matrix, rhs, network.fixed,
-                                              network.fixed_pressure, low_rank, state.dry)
+                                              network.fixed_pressure, low_rank, state.dry,
+                                              guess=state.pressure)
     flow_out = lap @ p_new
     net_in = source - flow_out
     state.content[free] += dt * net_in[free]
@@ -591,8 +592,8 @@ def undrained_pressure(network: FlowNetwork, state: FluidState, aperture: np.nda
 
 def _solve_without_suction(matrix: sp.csr_matrix, rhs: np.ndarray, fixed: np.ndarray,
                            fixed_pressure: np.ndarray, low_rank: SharedCompliance | None = None,
-                           dry: np.ndarray | None = None, max_rounds: int = 50
-                           ) -> tuple[np.ndarray, np.ndarray]:
+                           dry: np.ndarray | None = None, max_rounds: int = 50,
+                           guess: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Solve ``(matrix + low_rank) p = rhs`` with ``p >= 0`` on the free unknowns
     (primal-dual active set for this complementarity problem; ``low_rank``, if given,
     adds its large cracks' modes, :class:`SharedCompliance`). Returns the pressures
@@ -615,8 +616,10 @@ def _solve_without_suction(matrix: sp.csr_matrix, rhs: np.ndarray, fixed: np.nda
     (lab-calibrated rock, hybrid, 15 % fissures, seed 0). The matrix (storage
     plus a graph Laplacian) is an M-matrix, for which these rounds settle.
     """
-    p = np.where(fixed, fixed_pressure, 0.0)
     dry = np.zeros_like(fixed) if dry is None else dry & ~fixed
+    # ``guess`` (the last step's pressures) starts an iterative solve; a direct one
+    # reads only the held values.
+    p = np.where(fixed, fixed_pressure, 0.0 if guess is None else np.where(dry, 0.0, guess))
     diagonal = matrix.diagonal()
     if low_rank is not None:
         diagonal = diagonal + low_rank.modes_diagonal()  # ``near`` is in the matrix
@@ -624,14 +627,14 @@ def _solve_without_suction(matrix: sp.csr_matrix, rhs: np.ndarray, fixed: np.nda
         free = ~fixed & ~dry
         if free.any():
             held = ~free
-            a_ff = matrix[free][:, free].tocsc()
+            a_ff = matrix[free][:, free]
             b_f = rhs[free] - matrix[free][:, held] @ p[held]
-            if low_rank is None:
-                p[free] = _factorised(a_ff).solve(b_f)
-            else:
+            part = None
+            if low_rank is not None:
                 modes = low_rank.modes
                 b_f -= modes[free] @ (low_rank.kappa * (modes[held].T @ p[held]))
-                p[free] = _woodbury_solve(a_ff, b_f, modes[free], low_rank.kappa)
+                part = pressure_system.LowRank(modes[free], low_rank.kappa)
+            p[free] = pressure_system.solve(a_ff, b_f, part, guess=p[free])
         negative = free & (p < 0.0)
         wet = np.zeros_like(dry)
         if dry.any():
@@ -644,31 +647,6 @@ def _solve_without_suction(matrix: sp.csr_matrix, rhs: np.ndarray, fixed: np.nda
         p[negative] = 0.0
         dry = (dry | negative) & ~wet
     return np.maximum(p, np.where(fixed, -np.inf, 0.0)), dry
-
-
-def _factorised(a: sp.csc_matrix):
-    """SuperLU factors of a pressure system, which is symmetric: ordered by minimum degree
-    on A + A^T with diagonal pivots. On a 3D slab's grain-face network (12,473 unknowns)
-    L + U hold 1.28 million entries against 2.48 million with SuperLU's default column
-    ordering (COLAMD); the 100 mm cube's first injection step (61,295 unknowns, the whole
-    network conducting) took 6.6 s against 16.5 s, to the same well pressure."""
-    return splu(a, permc_spec="MMD_AT_PLUS_A", options={"SymmetricMode": True})
-
-
-def _woodbury_solve(a: sp.csc_matrix, b: np.ndarray, modes: sp.spmatrix,
-                    kappa: np.ndarray) -> np.ndarray:
-    """``(a + modes diag(kappa) modes^T)^-1 b`` by the Sherman-Morrison-Woodbury identity:
-    ``y - Z (diag(1/kappa) + modes^T Z)^-1 modes^T y`` with ``y = a^-1 b`` and
-    ``Z = a^-1 modes``; one factorisation of the sparse ``a``."""
-    lu = _factorised(a)
-    y = lu.solve(b)
-    used = np.flatnonzero(modes.getnnz(axis=0))  # cracks with a node in this system
-    if len(used) == 0:
-        return y
-    u = modes[:, used].toarray()
-    z = lu.solve(u)
-    capacitance = np.diag(1.0 / kappa[used]) + u.T @ z
-    return y - z @ np.linalg.solve(capacitance, u.T @ y)
 
 
 def explicit_step(network: FlowNetwork, state: FluidState, aperture: np.ndarray, dt: float,
