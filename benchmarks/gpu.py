@@ -18,10 +18,6 @@ Usage (from the repository root)::
     PYTHONPATH=src python3 benchmarks/gpu.py            # ~1e5 .. 1e7 tets, < 5 min
     PYTHONPATH=src python3 benchmarks/gpu.py --quick    # 1e5 and 1e6 tets, ~1 min
     PYTHONPATH=src python3 benchmarks/gpu.py --sim-smoke  # CPU only: numba's simulator
-
-Model set-up uses ``model_from_arrays``; its element row sums (an ``np.einsum``
-without contraction order, ~20 us a tet) are swapped here for the same formula as
-two batched matrix products (checked against the library at the first size).
 """
 
 from __future__ import annotations
@@ -42,15 +38,9 @@ if SMOKE:  # must be set before numba is imported
 import numba  # noqa: E402
 import numpy as np  # noqa: E402
 
-import grainfrac.physics.model as model_module  # noqa: E402
 from grainfrac.physics.cuda import CudaMechanics, device_name  # noqa: E402
 from grainfrac.physics.cuda._numba import cuda  # noqa: E402
 from grainfrac.physics.cuda.synthetic import grain_block, pull_loads  # noqa: E402
-from grainfrac.physics.elements.common import (  # noqa: E402
-    elasticity_matrix,
-    element_row_sums,
-    strain_displacement,
-)
 from grainfrac.physics.solver import MechanicsSolver  # noqa: E402
 
 CELL = 1e-3  # m, edge of a sub-cube
@@ -63,32 +53,8 @@ def say(*parts) -> None:
     print(*parts, flush=True)
 
 
-def fast_row_sums(grad, measure, lam, mu, chunk=1_000_000):
-    """``element_row_sums`` as batched matmuls: |B^T D B| V row sums, in chunks."""
-    m, k, d = grad.shape
-    out = np.empty((m, k, d))
-    for start in range(0, m, chunk):
-        sl = slice(start, min(start + chunk, m))
-        b = strain_displacement(grad[sl])
-        dmat = elasticity_matrix(lam[sl], mu[sl], d)
-        ke = np.matmul(np.matmul(b.transpose(0, 2, 1), dmat), b) * measure[sl, None, None]
-        out[sl] = np.abs(ke).sum(axis=2).reshape(-1, k, d)
-    return out
-
-
-@contextlib.contextmanager
-def fast_model_setup():
-    original = model_module.element_row_sums
-    model_module.element_row_sums = fast_row_sums
-    try:
-        yield
-    finally:
-        model_module.element_row_sums = original
-
-
 def build(n: int):
-    with fast_model_setup():
-        return grain_block(n, size=n * CELL, cuts=4)
+    return grain_block(n, size=n * CELL, cuts=4)
 
 
 def versions() -> str:
@@ -150,14 +116,6 @@ def time_cpu(n: int, steps: int, threads: int) -> dict:
             "rate": m * steps / t_run, "threads": threads}
 
 
-def check_setup(n: int) -> None:
-    """The swapped row sums against the library's, on a small block."""
-    block = grain_block(n, size=n * CELL, cuts=4).model
-    args = (block.grad, block.cell_measure, block.lam, block.mu)
-    ref, fast = element_row_sums(*args), fast_row_sums(*args, chunk=97)
-    assert np.allclose(fast, ref, rtol=1e-12, atol=0.0), "fast row sums differ"
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="1e5 and 1e6 tets (~1 min)")
@@ -180,7 +138,6 @@ def main() -> None:
     say(f"device: {device_name()}")
     say(f"python {platform.python_version()}, {versions()}, host {platform.node()} "
         f"({os.cpu_count()} CPU cores)")
-    check_setup(3)
     results = []
     per_tet_build = None
     for i, n in enumerate(sizes):

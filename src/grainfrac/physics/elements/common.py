@@ -5,6 +5,7 @@ from __future__ import annotations
 from types import ModuleType
 
 import numpy as np
+from numba import njit, prange
 
 
 def n_strain_components(dimension: int) -> int:
@@ -62,13 +63,86 @@ def element_row_sums(grad: np.ndarray, measure: np.ndarray, lam: np.ndarray,
     """Absolute row sums of each element stiffness matrix, per (element, node, dof).
 
     ``K_e = measure B^T D B``; the row sums are the Gershgorin bounds behind the
-    stable time step.
+    stable time step. Computed by :func:`_row_sums` with the same values, bit for bit,
+    as :func:`element_row_sums_reference` (every documented result depends on them
+    through the mass scaling), at a fraction of its time: the reference's three-operand
+    ``einsum`` took 10 s a call on the 100 mm cube's 962,131 tetrahedra.
     """
+    m, k, d = grad.shape
+    pairs = np.array(shear_pairs(d), dtype=np.int64)
+    return _row_sums(np.ascontiguousarray(grad, dtype=float),
+                     np.ascontiguousarray(measure, dtype=float),
+                     np.ascontiguousarray(lam, dtype=float),
+                     np.ascontiguousarray(mu, dtype=float), pairs).reshape(m, k, d)
+
+
+def element_row_sums_reference(grad: np.ndarray, measure: np.ndarray, lam: np.ndarray,
+                               mu: np.ndarray) -> np.ndarray:
+    """:func:`element_row_sums` as the matrix formula (numpy): the test's reference."""
     m, k, d = grad.shape
     b = strain_displacement(grad)
     dmat = elasticity_matrix(lam, mu, d)
     ke = np.einsum("mia,mij,mjb->mab", b, dmat, b) * measure[:, None, None]
     return np.abs(ke).sum(axis=2).reshape(m, k, d)
+
+
+@njit(cache=True, inline="always")
+def _b_entry(grad, e, i, a, d, pairs):
+    """B[i, a] of element e (see :func:`strain_displacement`), built on the fly."""
+    node, axis = a // d, a % d
+    if i < d:
+        return grad[e, node, i] if axis == i else 0.0
+    p, q = pairs[i - d, 0], pairs[i - d, 1]
+    if axis == p:
+        return grad[e, node, q]
+    if axis == q:
+        return grad[e, node, p]
+    return 0.0
+
+
+@njit(cache=True, inline="always")
+def _d_entry(lam, mu, e, i, j, d):
+    """D[i, j] of element e (see :func:`elasticity_matrix`)."""
+    if i < d and j < d:
+        return lam[e] + 2 * mu[e] if i == j else lam[e]
+    return mu[e] if i == j else 0.0
+
+
+@njit(cache=True, parallel=True)
+def _row_sums(grad, measure, lam, mu, pairs):
+    """The reference's arithmetic in its order: ``einsum`` sums the products
+    (B_ia D_ij) B_jc over i, then j; numpy's sum over a row adds fewer than 8 values
+    in turn and 8 or more pairwise in blocks of 8, then the rest in turn. Products
+    with a zero factor are skipped: adding them changes no sum."""
+    m, k, d = grad.shape
+    kd = k * d
+    n = d * (d + 1) // 2
+    out = np.empty((m, kd))
+    for e in prange(m):
+        v = np.empty(kd)
+        for a in range(kd):
+            for c in range(kd):
+                s = 0.0
+                for i in range(n):
+                    bia = _b_entry(grad, e, i, a, d, pairs)
+                    if bia == 0.0:
+                        continue
+                    for j in range(n):
+                        t = bia * _d_entry(lam, mu, e, i, j, d)
+                        if t == 0.0:
+                            continue
+                        s += t * _b_entry(grad, e, j, c, d, pairs)
+                v[c] = abs(s * measure[e])
+            if kd < 8:
+                total = 0.0
+                for c in range(kd):
+                    total += v[c]
+            else:
+                total = ((v[0] + v[1]) + (v[2] + v[3])) + ((v[4] + v[5]) + (v[6] + v[7]))
+                for c in range(8, kd):
+                    total += v[c]
+            out[e, a] = total
+    return out
 
 
 def element_stiffness(grad: np.ndarray, measure: np.ndarray, lam: np.ndarray,
