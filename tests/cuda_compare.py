@@ -15,7 +15,7 @@ import sys
 import numpy as np
 
 from grainfrac.loading.boundary import Platen
-from grainfrac.physics.cuda import SIMULATOR
+from grainfrac.physics.cuda import SIMULATOR, launch
 from grainfrac.physics.cuda.synthetic import grain_block, pull_loads
 from grainfrac.physics.records import ENERGY_KEYS
 from grainfrac.physics.solver import MechanicsSolver, NumericalBlowUp, PoreSprings
@@ -92,6 +92,7 @@ def main() -> None:
         except NumericalBlowUp:
             stops.append(solver.step_count)
     report["blowup_steps"] = stops
+    report["launches"] = launch.counts
     print(json.dumps(report))
 
 

@@ -31,6 +31,12 @@ from grainfrac.simulation import hydraulic_energy_warnings, run_scenario
 from grainfrac.units import MPA
 
 
+def pore_springs(coupled: HydroMechanicalSolver):
+    """The pore springs of a 1e-5 s step from the coupling's current state."""
+    return coupled._pore_springs(1e-5, flow.links(coupled.network, coupled.aperture(),
+                                                  coupled.fluid))
+
+
 def _case2_slab(freed_wall_grain: int | None = None) -> HydroMechanicalSolver:
     """A 50 mm slab (seed 1) under stress Case 2 with a well; optionally the
     ``freed_wall_grain``-th grain at the borehole wall has lost all its bonds."""
@@ -349,7 +355,7 @@ def test_an_undrained_pore_starts_its_step_at_the_solved_pressure(coupled):
     try:
         coupled.state.pressure[unknown] = 5.0 * MPA  # above the well's (0)
         coupled.state.content[unknown] *= 1.1
-        r = coupled._pore_springs(1e-5, coupled.aperture())
+        r = pore_springs(coupled)
         assert c in r.contact
         assert np.isinf(r.ceiling[r.pore[np.flatnonzero(r.contact == c)[0]]])
         pressure = np.zeros(m.model.n_contacts)
@@ -376,7 +382,7 @@ def test_a_drained_pore_holds_its_pressure_only_within_its_fluid(coupled):
         # Fluid for its current void at 5 MPa.
         coupled.state.content[unknown] = coupled.state.volume[unknown] * (1.0 + 5.0 * MPA
                                                                           / 2.0e9)
-        r = coupled._pore_springs(1e-5, coupled.aperture())
+        r = pore_springs(coupled)
     finally:
         coupled.state = saved
     k = r.pore[np.flatnonzero(r.contact == c)[0]]
@@ -402,7 +408,7 @@ def test_a_drained_pore_holds_its_pressure_only_within_its_fluid(coupled):
         coupled.state.pressure[net.well_unknown] = 8.0 * MPA
         coupled.state.pressure[unknown] = 5.0 * MPA
         coupled.state.content[unknown] = 0.9 * coupled.state.volume[unknown]
-        r = coupled._pore_springs(1e-5, coupled.aperture())
+        r = pore_springs(coupled)
     finally:
         coupled.state = saved
     assert pressure_at(0.0) < 5.0 * MPA

@@ -69,6 +69,7 @@ def _check(report: dict) -> None:
 def test_simulated_cuda_backend_matches_cpu():
     report = _compare(simulator=True)
     assert report["simulator"]
+    assert report["launches"]["prepared"] == 0 and report["launches"]["plain"] > 0
     _check(report)
 
 
@@ -77,6 +78,8 @@ def test_simulated_cuda_backend_matches_cpu():
 def test_gpu_backend_matches_cpu():
     report = _compare(simulator=False)
     assert not report["simulator"]
+    # On a GPU the kernels go out as prepared launches (physics/cuda/launch.py).
+    assert report["launches"]["prepared"] > 0 and report["launches"]["plain"] == 0
     _check(report)
 
 

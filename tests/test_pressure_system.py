@@ -50,10 +50,24 @@ def test_a_warm_start_at_the_answer_takes_no_iteration():
 
 def test_solve_falls_back_to_the_factorisation_when_iterations_run_out(monkeypatch):
     a, b, low_rank, _ = grain_boundary_system()
+    free = np.ones(len(b), dtype=bool)
     monkeypatch.setattr(pressure_system, "ITERATIVE_MIN_UNKNOWNS", 0)
     monkeypatch.setattr(pressure_system, "MAX_ITERATIONS", 1)
-    x = pressure_system.solve(a, b, low_rank)
+    x = pressure_system.solve_free(a, b, free, np.zeros(len(b)), low_rank)
     assert np.array_equal(x, pressure_system.woodbury_solve(a.tocsc(), b, low_rank))
+
+
+def test_held_entries_are_masked_out_not_sliced_out():
+    """Conjugate gradients on the whole system with some entries held give the free
+    block's solution with the held values moved to the right-hand side."""
+    a, b, low_rank, pressure = grain_boundary_system(seed=2)
+    free = np.random.default_rng(2).random(len(b)) < 0.7
+    held = ~free
+    start = np.where(free, 0.0, pressure)
+    x = pressure_system.conjugate_gradients(a, b, low_rank, start, free=free)
+    assert x is not None and np.array_equal(x[held], pressure[held])
+    direct = pressure_system.solve_free(a, b, free, start, low_rank)
+    assert np.max(np.abs(x - direct)) < 1e-5 * np.max(np.abs(direct))
 
 
 def test_the_active_set_solve_is_the_same_iterative_or_direct(monkeypatch):

@@ -146,6 +146,7 @@ class HydroMechanicalSolver:
         # The pores at the end of the last checked step, keyed by the mechanics' step
         # count: the next step starts from the same mechanical state.
         self._pores: tuple[int, _Pores] | None = None
+        self._pore_layout_cache: tuple | None = None
         self._apply_pressure()
 
     def _conducting_network(self, aperture: np.ndarray | None = None) -> flow.FlowNetwork:
@@ -491,12 +492,13 @@ class HydroMechanicalSolver:
         n_steps = whole_steps(dt, m.model.dt)
         dt = n_steps * m.model.dt
         pores = self._current_pores()
+        pipe_links = flow.links(self.network, pores.aperture, self.fluid)
         flow.implicit_step(self.network, self.state, pores.aperture, dt, self.fluid,
                            injection_rate, compliance=pores.local_compliance,
                            well_volume=pores.well_void,
-                           shared_compliance=pores.shared_compliance)
+                           shared_compliance=pores.shared_compliance, pipe_links=pipe_links)
         self._apply_pressure()
-        m.pore_springs = self._pore_springs(dt, pores.aperture)
+        m.pore_springs = self._pore_springs(dt, pipe_links)
         u_before = m.u.copy()
         try:
             m.cycle(n_steps)
@@ -506,7 +508,8 @@ class HydroMechanicalSolver:
             self.state.wall_work += self.well_pressure * float(
                 np.sum(self.well_unit_forces * (m.u - u_before)))
 
-    def _pore_springs(self, dt: float, aperture: np.ndarray) -> PoreSprings:
+    def _pore_springs(self, dt: float, pipe_links: tuple[np.ndarray, np.ndarray]
+                      ) -> PoreSprings:
         """How each free pore's pressure follows its void during this step's mechanics.
 
         Undrained pores: those next to a grain with no bonded boundary left, and
@@ -557,24 +560,17 @@ class HydroMechanicalSolver:
         """
         net = self.network
         pressure = self.state.pressure
-        pore = net.contact_unknown
         m = self.mechanics
-        listed = ~net.fixed
-        if net.well_unknown >= 0:
-            listed[net.well_unknown] = False
-        contact = np.flatnonzero(listed[pore])
+        pore, contact, pores, local, springs = self._pore_layout()
         if len(contact) == 0:
             return PoreSprings.none()
         undrained = (pressure > self.well_pressure) | (pressure <= 0.0)
         undrained[pore[self._on_loose_grain(m.bonded[:len(pore)])]] = True
-        pores, local = np.unique(pore[contact], return_inverse=True)
         f = self.fluid
         p = pressure[pores]
         void = self.state.volume[pores]
         fluid_storage = void / f.bulk_modulus
-        springs = np.bincount(local, weights=m.model.contact_area[contact]
-                              / m.model.normal_stiffness[contact])
-        ends, conductance = flow.links(net, aperture, f)
+        ends, conductance = pipe_links  # flow.links of the step's network and apertures
         supply = dt * np.bincount(ends.ravel(), weights=np.repeat(conductance, 2),
                                   minlength=net.n_unknowns)[pores]
         sealed = undrained[pores]
@@ -583,11 +579,34 @@ class HydroMechanicalSolver:
         filled = self.state.content[pores] - fluid_storage * p
         start = np.where(sealed, void, filled)
         return PoreSprings(
-            contact=contact.astype(np.int64), pore=local.astype(np.int64),
+            contact=contact, pore=local,
             lower=flow.smallest_aperture(f, m.bonded[contact]),
             initial_aperture=f.initial_aperture,
             held_void=start + p * storage, storage=storage,
             ceiling=np.where(sealed, np.inf, p))
+
+    def _pore_layout(self) -> tuple[np.ndarray, ...]:
+        """Which unknown each sub-contact fills, the sub-contacts of free pores (not the
+        well's), those pores, each listed sub-contact's pore among them, and each
+        pore's contact springs sum A / kn. Fixed by the network's unknowns: found once
+        (on the 100 mm cube they cost as much as the rest of the pore springs)."""
+        net = self.network
+        key = (net.unknown_of_node, net.fixed, net.well_unknown)
+        cached = self._pore_layout_cache
+        if cached is not None and all(a is b for a, b in zip(cached[0], key, strict=True)):
+            return cached[1]
+        pore = net.contact_unknown
+        listed = ~net.fixed
+        if net.well_unknown >= 0:
+            listed[net.well_unknown] = False
+        contact = np.flatnonzero(listed[pore])
+        pores, local = np.unique(pore[contact], return_inverse=True)
+        model = self.mechanics.model
+        springs = np.bincount(local, weights=model.contact_area[contact]
+                              / model.normal_stiffness[contact])
+        layout = (pore, contact.astype(np.int64), pores, local.astype(np.int64), springs)
+        self._pore_layout_cache = (key, layout)
+        return layout
 
 
 def penny_crack_length(diameter):

@@ -509,7 +509,8 @@ def implicit_step(network: FlowNetwork, state: FluidState, aperture: np.ndarray,
                   fluid: FluidProperties, injection_rate: float = 0.0,
                   compliance: np.ndarray | None = None,
                   well_volume: float | None = None,
-                  shared_compliance: SharedCompliance | sp.spmatrix | None = None) -> None:
+                  shared_compliance: SharedCompliance | sp.spmatrix | None = None,
+                  pipe_links: tuple[np.ndarray, np.ndarray] | None = None) -> None:
     """Advance pressures by ``dt``: backward Euler on fluid content; update the balance.
 
     Solves, for the free unknowns,
@@ -521,12 +522,13 @@ def implicit_step(network: FlowNetwork, state: FluidState, aperture: np.ndarray,
     they stand in for the mechanical response to the pressure change that the
     staggered mechanics delivers next; with both zero this is the plain
     conservative step). Content then changes by exactly the net flow.
-    ``well_volume`` is the borehole's current void (default: undeformed).
+    ``well_volume`` is the borehole's current void (default: undeformed);
+    ``pipe_links``: :func:`links` of ``network`` and ``aperture``, if the caller has them.
     """
     c = _compressibility(network, fluid)
     v_new = storage_volume(network, aperture, well_volume)
     beta = np.zeros(network.n_unknowns) if compliance is None else compliance
-    lap = _laplacian(network, *links(network, aperture, fluid))
+    lap = _laplacian(network, *(pipe_links or links(network, aperture, fluid)))
     source = _sources(network, injection_rate)
     storage = v_new * c + beta
     rhs = state.content - v_new + beta * state.pressure + dt * source
@@ -623,18 +625,12 @@ def _solve_without_suction(matrix: sp.csr_matrix, rhs: np.ndarray, fixed: np.nda
     diagonal = matrix.diagonal()
     if low_rank is not None:
         diagonal = diagonal + low_rank.modes_diagonal()  # ``near`` is in the matrix
+    modes = None if low_rank is None else pressure_system.LowRank(low_rank.modes,
+                                                                  low_rank.kappa)
     for _ in range(max_rounds):
         free = ~fixed & ~dry
         if free.any():
-            held = ~free
-            a_ff = matrix[free][:, free]
-            b_f = rhs[free] - matrix[free][:, held] @ p[held]
-            part = None
-            if low_rank is not None:
-                modes = low_rank.modes
-                b_f -= modes[free] @ (low_rank.kappa * (modes[held].T @ p[held]))
-                part = pressure_system.LowRank(modes[free], low_rank.kappa)
-            p[free] = pressure_system.solve(a_ff, b_f, part, guess=p[free])
+            p = pressure_system.solve_free(matrix, rhs, free, p, modes)
         negative = free & (p < 0.0)
         wet = np.zeros_like(dry)
         if dry.any():

@@ -38,10 +38,10 @@ MAX_ITERATIONS = 5000
 
 
 class LowRank:
-    """``modes diag(kappa) modes^T`` restricted to one set of unknowns (n x K, K)."""
+    """``modes diag(kappa) modes^T`` (modes sparse n x K, kappa K)."""
 
     def __init__(self, modes: sp.spmatrix, kappa: np.ndarray):
-        self.modes = sp.csr_matrix(modes)
+        self.modes = modes
         self.kappa = np.asarray(kappa, dtype=float)
 
     def __matmul__(self, x: np.ndarray) -> np.ndarray:
@@ -51,21 +51,30 @@ class LowRank:
         return self.modes.multiply(self.modes) @ self.kappa
 
 
-def solve(a: sp.spmatrix, b: np.ndarray, low_rank: LowRank | None = None,
-          guess: np.ndarray | None = None) -> np.ndarray:
-    """``x`` with ``(a + low_rank) x = b``: factorised below ``ITERATIVE_MIN_UNKNOWNS``
-    unknowns, else by :func:`conjugate_gradients` from ``guess`` (falling back to the
-    factorisation if they do not converge)."""
-    if a.shape[0] >= ITERATIVE_MIN_UNKNOWNS:
-        x = conjugate_gradients(sp.csr_matrix(a), b, low_rank,
-                                np.zeros(len(b)) if guess is None else guess,
-                                max_iterations=MAX_ITERATIONS)
+def solve_free(a: sp.csr_matrix, b: np.ndarray, free: np.ndarray, p: np.ndarray,
+               low_rank: LowRank | None = None) -> np.ndarray:
+    """``p`` with its ``free`` entries solved from ``(a + low_rank) p = b`` on the free
+    rows and its other entries held as given.
+
+    From ``ITERATIVE_MIN_UNKNOWNS`` free unknowns up by :func:`conjugate_gradients`
+    on the whole system (the held entries masked, starting from ``p``), else (or if
+    they do not converge) by a factorisation of the free block.
+    """
+    if np.count_nonzero(free) >= ITERATIVE_MIN_UNKNOWNS:
+        x = conjugate_gradients(a, b, low_rank, p, free=free, max_iterations=MAX_ITERATIONS)
         if x is not None:
             return x
-    a = sp.csc_matrix(a)
+    held = ~free
+    a_ff = sp.csc_matrix(a[free][:, free])
+    b_f = b[free] - a[free][:, held] @ p[held]
+    out = p.copy()
     if low_rank is None:
-        return factorised(a).solve(b)
-    return woodbury_solve(a, b, low_rank)
+        out[free] = factorised(a_ff).solve(b_f)
+    else:
+        modes = low_rank.modes
+        b_f -= modes[free] @ (low_rank.kappa * (modes[held].T @ p[held]))
+        out[free] = woodbury_solve(a_ff, b_f, LowRank(modes[free], low_rank.kappa))
+    return out
 
 
 def factorised(a: sp.csc_matrix):
@@ -94,10 +103,16 @@ def woodbury_solve(a: sp.csc_matrix, b: np.ndarray, low_rank: LowRank) -> np.nda
 
 
 def conjugate_gradients(a: sp.csr_matrix, b: np.ndarray, low_rank: LowRank | None,
-                        guess: np.ndarray, tolerance: float = PRESSURE_TOLERANCE,
+                        guess: np.ndarray, free: np.ndarray | None = None,
+                        tolerance: float = PRESSURE_TOLERANCE,
                         max_iterations: int = MAX_ITERATIONS) -> np.ndarray | None:
     """Jacobi-preconditioned conjugate gradients from ``guess``; None if the residual
     test (``PRESSURE_TOLERANCE``, per node) is not met in ``max_iterations``.
+
+    ``free`` (bool), if given: only those entries are solved for, on their rows; the
+    others keep their ``guess`` values. The search directions are zero there, so this
+    is conjugate gradients on the free block without slicing it out (which cost more
+    than the iterations on the 100 mm cube).
 
     Written out rather than scipy's ``cg`` for its stopping test: a norm of the
     residual lets the nodes of small storage (intact pores, 1e-19 m3/Pa) keep
@@ -106,23 +121,24 @@ def conjugate_gradients(a: sp.csr_matrix, b: np.ndarray, low_rank: LowRank | Non
     def apply(x):
         return a @ x if low_rank is None else a @ x + low_rank @ x
 
+    mask = np.ones(len(b)) if free is None else free.astype(float)
     diagonal = a.diagonal() if low_rank is None else a.diagonal() + low_rank.diagonal()
     x = np.array(guess, dtype=float)
-    r = b - apply(x)
+    r = (b - apply(x)) * mask
     z = r / diagonal
     if np.max(np.abs(z), initial=0.0) <= tolerance:
         return x
     d = z.copy()
     rz = r @ z
     for _ in range(max_iterations):
-        q = apply(d)
+        q = apply(d) * mask
         alpha = rz / (d @ q)
         x += alpha * d
         r -= alpha * q
         z = r / diagonal
         if np.max(np.abs(z)) <= tolerance:
             # The recurrence's residual drifts from the true one over many iterations.
-            if np.max(np.abs((b - apply(x)) / diagonal)) <= tolerance:
+            if np.max(np.abs((b - apply(x)) * mask / diagonal)) <= tolerance:
                 return x
         rz_next = r @ z
         d = z + (rz_next / rz) * d

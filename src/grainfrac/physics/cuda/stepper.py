@@ -16,6 +16,7 @@ import numpy as np
 
 from grainfrac.physics.cuda._numba import SIMULATOR, cuda
 from grainfrac.physics.cuda.device_kernels import HALTED, N_CRACKS, step_kernels
+from grainfrac.physics.cuda.launch import PreparedLaunch
 from grainfrac.physics.records import (
     Contacts,
     ContactState,
@@ -148,47 +149,56 @@ def run_steps_cuda(control: StepControl, nodes: NodeState, loads: NodeLoads,
     limit = float(control.velocity_limit)
     ge, gc, gn = _blocks(n_elements, tpb), _blocks(n_contacts, tpb), _blocks(n_nodes, tpb)
     gp, gq = _blocks(n_platen_nodes, tpb), _blocks(n_pore_contacts, tpb)
-    element_forces = k["element_forces"][ge, tpb]
-    contact_forces = k["contact_forces"][gc, tpb]
-    update_nodes = k["update_nodes"][gn, tpb]
     es, cs = element_state, contact_state
+    # The arguments are converted once for the cycle; each step passes its number.
+    element_forces = PreparedLaunch(k["element_forces"], ge, tpb, (
+        0, dt, nodes.u, elements.cells, elements.grad, elements.measure, elements.lam,
+        elements.mu, es.stress, es.eigenstrain, es.eigenstrain_rate, es.initial_strain,
+        nodes.force, energies, work.control, work.vmax, limit, platens.position,
+        platens.velocity, platens.reaction, pores.void), varying=(0,))
+    if n_pore_contacts:
+        pore_void_sum = PreparedLaunch(k["pore_void_sum"], gq, tpb, (
+            nodes.u, contacts.nodes, contacts.frame, contacts.area, pores.contact, pores.pore,
+            pores.lower, float(pores.initial_aperture), pores.void, work.control))
+        pore_pressure = PreparedLaunch(k["pore_pressure"], gq, tpb, (
+            pores.contact, pores.pore, pores.held_void, pores.storage, pores.ceiling,
+            pores.void, cs.pressure, work.control))
+    if n_contacts:
+        contact_forces = PreparedLaunch(k["contact_forces"], gc, tpb, (
+            0, dt, allow, nodes.u, nodes.v, nodes.force, contacts.nodes, contacts.frame,
+            contacts.area, contacts.kn, contacts.ks, contacts.tan_phi, contacts.cohesion,
+            contacts.tensile_strength, contacts.opening_to_fail, contacts.slip_to_fail,
+            cs.bonded, cs.status, cs.sigma_n, cs.tau, cs.damage, cs.plastic_opening,
+            cs.pressure, cs.released, cs.opening_offset, energies, work.control,
+            cracks.contact, cracks.step), varying=(0,))
+    if n_platen_nodes:
+        platen_forces = PreparedLaunch(k["platen_forces"], gp, tpb, (
+            platens.x, nodes.u, nodes.force, work.platen_of, platens.nodes, platens.axis,
+            platens.side, platens.position, platens.stiffness, platens.reaction,
+            platens.node_force, work.control))
+        platen_work = PreparedLaunch(k["platen_work"], gp, tpb, (
+            dt, nodes.v, work.platen_of, platens.nodes, platens.axis, platens.node_force,
+            energies, work.control))
+    update_nodes = PreparedLaunch(k["update_nodes"], gn, tpb, (
+        0, dt, alpha, 0, nodes.u, nodes.v, nodes.force, loads.mass, loads.external,
+        loads.fixed, loads.prescribed_velocity, energies, work.vmax, work.control),
+        varying=(0, 3))
     for step in range(n_steps):
-        element_forces(step, dt, nodes.u, elements.cells, elements.grad, elements.measure,
-                       elements.lam, elements.mu, es.stress, es.eigenstrain,
-                       es.eigenstrain_rate, es.initial_strain, nodes.force, energies,
-                       work.control, work.vmax, limit, platens.position, platens.velocity,
-                       platens.reaction, pores.void)
+        element_forces(step)
         clock("elements")
         if n_pore_contacts:
-            k["pore_void_sum"][gq, tpb](nodes.u, contacts.nodes, contacts.frame, contacts.area,
-                                        pores.contact, pores.pore, pores.lower,
-                                        float(pores.initial_aperture), pores.void,
-                                        work.control)
-            k["pore_pressure"][gq, tpb](pores.contact, pores.pore, pores.held_void,
-                                        pores.storage, pores.ceiling, pores.void,
-                                        cs.pressure, work.control)
+            pore_void_sum()
+            pore_pressure()
         if n_contacts:
-            contact_forces(step, dt, allow, nodes.u, nodes.v, nodes.force, contacts.nodes,
-                           contacts.frame, contacts.area, contacts.kn, contacts.ks,
-                           contacts.tan_phi, contacts.cohesion, contacts.tensile_strength,
-                           contacts.opening_to_fail, contacts.slip_to_fail, cs.bonded,
-                           cs.status, cs.sigma_n, cs.tau, cs.damage, cs.plastic_opening,
-                           cs.pressure, cs.released, cs.opening_offset, energies,
-                           work.control, cracks.contact, cracks.step)
+            contact_forces(step)
         clock("contacts")
         if n_platen_nodes:
-            k["platen_forces"][gp, tpb](platens.x, nodes.u, nodes.force, work.platen_of,
-                                        platens.nodes, platens.axis, platens.side,
-                                        platens.position, platens.stiffness,
-                                        platens.reaction, platens.node_force, work.control)
+            platen_forces()
             clock("platens")
-        update_nodes(step, dt, alpha, int(step == n_steps - 1), nodes.u, nodes.v, nodes.force,
-                     loads.mass, loads.external, loads.fixed, loads.prescribed_velocity,
-                     energies, work.vmax, work.control)
+        update_nodes(step, int(step == n_steps - 1))
         clock("nodes")
         if n_platen_nodes:
-            k["platen_work"][gp, tpb](dt, nodes.v, work.platen_of, platens.nodes, platens.axis,
-                                      platens.node_force, energies, work.control)
+            platen_work()
             clock("platens")
         if (step + 1) % sync_every == 0 and work.control.copy_to_host()[HALTED]:
             break
