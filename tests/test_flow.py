@@ -339,3 +339,24 @@ def test_large_crack_modes_as_factors_give_the_dense_block_solution(slab, monkey
     for state in states[1:3]:
         stored = state.content[~network.fixed].sum() - states[0].content[~network.fixed].sum()
         assert abs(stored + state.outflow - states[0].outflow) < 1e-6 * state.injected
+
+
+def test_laplacian_pattern_gives_scipys_conversion_bit_for_bit():
+    """The kept pattern of the pipe Laplacian (flow._LaplacianPattern) must give the
+    matrix scipy's conversion gives, to the last bit, or every coupled result moves:
+    first call, second (pattern made), later ones (pattern kept), and new pipes."""
+    config = validate(SpecimenConfig, {"seed": 2, "dimension": 3, "specimen": {
+        "shape": "slab", "width_mm": 30, "height_mm": 30, "thickness_mm": 10}})
+    assembly = build_assembly(config, config.recipe())
+    network = flow.build_flow_network(assembly.mesh, permeable_sides={"x-": 0.0}, well=True)
+    rng = np.random.default_rng(4)
+    ends_all = network.pipe_unknowns
+    for ends in (ends_all, ends_all, ends_all, ends_all[::2], ends_all[::2], ends_all):
+        cond = 10.0 ** rng.uniform(-20, -12, len(ends))
+        values, rows, cols = flow._laplacian_entries(ends, cond)
+        n = network.n_unknowns
+        reference = sp.coo_matrix((values, (rows, cols)), shape=(n, n)).tocsr()
+        got = flow._laplacian(network, np.array(ends), cond)
+        for part in ("indptr", "indices", "data"):
+            assert np.array_equal(getattr(got, part), getattr(reference, part)), part
+    assert flow._last_pattern is not None and flow._last_pattern.exact
