@@ -342,7 +342,7 @@ def test_large_crack_modes_as_factors_give_the_dense_block_solution(slab, monkey
 
 
 def test_laplacian_pattern_gives_scipys_conversion_bit_for_bit():
-    """The kept pattern of the pipe Laplacian (flow._LaplacianPattern) must give the
+    """The kept pattern of the pipe Laplacian (pressure_system._LaplacianPattern) must give the
     matrix scipy's conversion gives, to the last bit, or every coupled result moves:
     first call, second (pattern made), later ones (pattern kept), and new pipes."""
     config = validate(SpecimenConfig, {"seed": 2, "dimension": 3, "specimen": {
@@ -353,10 +353,10 @@ def test_laplacian_pattern_gives_scipys_conversion_bit_for_bit():
     ends_all = network.pipe_unknowns
     for ends in (ends_all, ends_all, ends_all, ends_all[::2], ends_all[::2], ends_all):
         cond = 10.0 ** rng.uniform(-20, -12, len(ends))
-        values, rows, cols = flow._laplacian_entries(ends, cond)
+        values, rows, cols = pressure_system._laplacian_entries(ends, cond)
         n = network.n_unknowns
         reference = sp.coo_matrix((values, (rows, cols)), shape=(n, n)).tocsr()
         got = flow._laplacian(network, np.array(ends), cond)
         for part in ("indptr", "indices", "data"):
             assert np.array_equal(getattr(got, part), getattr(reference, part)), part
-    assert flow._last_pattern is not None and flow._last_pattern.exact
+    assert pressure_system._last_pattern is not None and pressure_system._last_pattern.exact

@@ -467,84 +467,8 @@ def _sources(network: FlowNetwork, injection_rate: float) -> np.ndarray:
 
 
 def _laplacian(network: FlowNetwork, ends: np.ndarray, cond: np.ndarray) -> sp.csr_matrix:
-    """The graph Laplacian of the pipes ``ends`` (k, 2) with conductances ``cond``.
-
-    Once the same pipes come twice in a row, their pattern is kept while they stay
-    (:class:`_LaplacianPattern`): converting the entries to a sparse matrix anew took
-    28 ms of the 100 mm cube's ~100 ms of host work per fluid step, the kept pattern
-    a fifth of that.
-    """
-    global _last_pipes, _last_pattern
-    n = network.n_unknowns
-    if _last_pattern is not None and _last_pattern.serves(n, ends):
-        return _last_pattern.matrix(cond)
-    if _last_pipes is not None and _last_pipes[0] == n and np.array_equal(_last_pipes[1], ends):
-        _last_pattern = _LaplacianPattern(n, ends)
-        return _last_pattern.matrix(cond)
-    _last_pipes = (n, np.array(ends))
-    values, rows, cols = _laplacian_entries(ends, cond)
-    return sp.coo_matrix((values, (rows, cols)), shape=(n, n)).tocsr()
-
-
-def _laplacian_entries(ends: np.ndarray, cond: np.ndarray):
-    """The Laplacian's (value, row, column) entries, duplicates included."""
-    i, j = ends[:, 0], ends[:, 1]
-    return (np.concatenate((cond, cond, -cond, -cond)),
-            np.concatenate((i, j, i, j)), np.concatenate((i, j, j, i)))
-
-
-class _LaplacianPattern:
-    """Where each Laplacian entry lands in the sparse matrix, and in which order the
-    entries of a position are added: scipy's own (rows in input order, then its sort
-    of each row's columns, then duplicates added left to right), so that the matrix
-    is scipy's conversion bit for bit. That is checked when the pattern is made; a
-    scipy that converts otherwise makes the pattern fall back to its conversion."""
-
-    def __init__(self, n: int, ends: np.ndarray):
-        self.n, self.ends = n, np.array(ends)
-        values, rows, cols = _laplacian_entries(self.ends, np.ones(len(self.ends)))
-        # Rows in input order (a stable sort), then scipy's sort within each row,
-        # carried out on the entries' numbers to learn where each one goes.
-        by_row = np.argsort(rows, kind="stable")
-        indptr = np.concatenate(([0], np.cumsum(np.bincount(rows, minlength=n))))
-        unsorted = sp.csr_matrix((by_row.astype(float), cols[by_row], indptr), shape=(n, n))
-        unsorted.has_sorted_indices = False
-        unsorted.sort_indices()
-        self.order = unsorted.data.astype(np.int64)
-        row_of = np.repeat(np.arange(n), np.diff(unsorted.indptr))
-        new = np.ones(len(self.order), dtype=bool)
-        new[1:] = (unsorted.indices[1:] != unsorted.indices[:-1]) | (row_of[1:] != row_of[:-1])
-        self.slot = np.cumsum(new) - 1
-        self.indices = unsorted.indices[new]
-        self.indptr = np.concatenate(([0], np.cumsum(np.bincount(row_of[new], minlength=n))))
-        probe = np.random.default_rng(0).uniform(0.5, 2.0, len(self.ends))
-        self.exact = True
-        reference = self._converted(probe)
-        mine = self.matrix(probe)
-        self.exact = all(np.array_equal(getattr(mine, a), getattr(reference, a))
-                         for a in ("indptr", "indices", "data"))
-
-    def serves(self, n: int, ends: np.ndarray) -> bool:
-        return n == self.n and (ends is self.ends or np.array_equal(ends, self.ends))
-
-    def _converted(self, cond: np.ndarray) -> sp.csr_matrix:
-        values, rows, cols = _laplacian_entries(self.ends, cond)
-        return sp.coo_matrix((values, (rows, cols)), shape=(self.n, self.n)).tocsr()
-
-    def matrix(self, cond: np.ndarray) -> sp.csr_matrix:
-        if not self.exact:
-            return self._converted(cond)
-        values = _laplacian_entries(self.ends, cond)[0]
-        data = np.bincount(self.slot, weights=values[self.order], minlength=len(self.indices))
-        out = sp.csr_matrix((data, self.indices.copy(), self.indptr.copy()),
-                            shape=(self.n, self.n))
-        out.has_canonical_format = True
-        return out
-
-
-# The pipes of the last Laplacian made without a pattern, and the pattern in use.
-_last_pipes: tuple[int, np.ndarray] | None = None
-_last_pattern: _LaplacianPattern | None = None
+    """The graph Laplacian of the pipes ``ends`` (k, 2) with conductances ``cond``."""
+    return pressure_system.laplacian(network.n_unknowns, ends, cond)
 
 
 @dataclass(frozen=True)
@@ -566,15 +490,16 @@ class SharedCompliance:
     modes: sp.csc_matrix
     kappa: np.ndarray
 
-    def __matmul__(self, p: np.ndarray) -> np.ndarray:
-        return self.near @ p + self.modes @ (self.kappa * (self.modes.T @ p))
+    @property
+    def low_rank(self) -> pressure_system.LowRank:
+        """``modes diag(kappa) modes^T``."""
+        return pressure_system.LowRank(self.modes, self.kappa)
 
-    def modes_diagonal(self) -> np.ndarray:
-        """The diagonal of ``modes diag(kappa) modes^T``."""
-        return self.modes.multiply(self.modes) @ self.kappa
+    def __matmul__(self, p: np.ndarray) -> np.ndarray:
+        return self.near @ p + self.low_rank @ p
 
     def diagonal(self) -> np.ndarray:
-        return self.near.diagonal() + self.modes_diagonal()
+        return self.near.diagonal() + self.low_rank.diagonal()
 
 
 def implicit_step(network: FlowNetwork, state: FluidState, aperture: np.ndarray, dt: float,
@@ -694,11 +619,8 @@ def _solve_without_suction(matrix: sp.csr_matrix, rhs: np.ndarray, fixed: np.nda
     # ``guess`` (the last step's pressures) starts an iterative solve; a direct one
     # reads only the held values.
     p = np.where(fixed, fixed_pressure, 0.0 if guess is None else np.where(dry, 0.0, guess))
-    diagonal = matrix.diagonal()
-    if low_rank is not None:
-        diagonal = diagonal + low_rank.modes_diagonal()  # ``near`` is in the matrix
-    modes = None if low_rank is None else pressure_system.LowRank(low_rank.modes,
-                                                                  low_rank.kappa)
+    modes = None if low_rank is None else low_rank.low_rank  # ``near`` is in the matrix
+    diagonal = matrix.diagonal() if modes is None else matrix.diagonal() + modes.diagonal()
     for _ in range(max_rounds):
         free = ~fixed & ~dry
         if free.any():
