@@ -47,11 +47,13 @@ def laplacian(n: int, ends: np.ndarray, cond: np.ndarray) -> sp.csr_matrix:
     9 ms.
     """
     global _last_pipes, _last_pattern
-    if _last_pattern is not None and _last_pattern.serves(n, ends):
-        return _last_pattern.matrix(cond)
-    if _last_pipes is not None and _last_pipes[0] == n and np.array_equal(_last_pipes[1], ends):
-        _last_pattern = _LaplacianPattern(n, ends)
-        return _last_pattern.matrix(cond)
+    # Read once: runs in threads of one process (a Dask worker's) swap these references.
+    pattern, pipes = _last_pattern, _last_pipes
+    if pattern is not None and pattern.serves(n, ends):
+        return pattern.matrix(cond)
+    if pipes is not None and pipes[0] == n and np.array_equal(pipes[1], ends):
+        pattern = _last_pattern = _LaplacianPattern(n, ends)
+        return pattern.matrix(cond)
     _last_pipes = (n, np.array(ends))
     return _converted_laplacian(n, ends, cond)
 

@@ -70,8 +70,15 @@ class PreparedLaunch:
             launch, stream, config, function, kernel_args, slots = self._fast
             for slot, value in zip(slots, values, strict=True):
                 slot.value = value
-            launch(stream, config, function, *kernel_args)
-            return
+            try:
+                launch(stream, config, function, *kernel_args)
+                return
+            except (TypeError, ValueError, AttributeError):
+                # Refused before it was queued (another cuda.core's argument rules):
+                # launch as usual from now on.
+                self._fast = None
+                counts["prepared"] -= 1
+                counts["plain"] += 1
         for i, value in zip(self._varying, values, strict=True):
             self._args[i] = value
         self._plain(*self._args)
