@@ -591,9 +591,9 @@ class HydroMechanicalSolver:
         pore's contact springs sum A / kn. Fixed by the network's unknowns: found once
         (on the 100 mm cube they cost as much as the rest of the pore springs)."""
         net = self.network
-        key = (net.unknown_of_node, net.fixed, net.well_unknown)
         cached = self._pore_layout_cache
-        if cached is not None and all(a is b for a, b in zip(cached[0], key, strict=True)):
+        if (cached is not None and cached[0][0] is net.unknown_of_node
+                and cached[0][1] is net.fixed and cached[0][2] == net.well_unknown):
             return cached[1]
         pore = net.contact_unknown
         listed = ~net.fixed
@@ -605,7 +605,7 @@ class HydroMechanicalSolver:
         springs = np.bincount(local, weights=model.contact_area[contact]
                               / model.normal_stiffness[contact])
         layout = (pore, contact.astype(np.int64), pores, local.astype(np.int64), springs)
-        self._pore_layout_cache = (key, layout)
+        self._pore_layout_cache = ((net.unknown_of_node, net.fixed, net.well_unknown), layout)
         return layout
 
 
