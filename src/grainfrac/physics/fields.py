@@ -35,9 +35,18 @@ def tangential_stress(points: np.ndarray, stress: np.ndarray,
     sigma_tt = sxx sin^2(t) + syy cos^2(t) - 2 sxy sin(t) cos(t), with t the
     polar angle of the point about the centre.
     """
-    d = np.asarray(points, dtype=float) - np.asarray(center, dtype=float)
+    return _hoop(stress, *_polar_sin_cos(points, center))
+
+
+def _polar_sin_cos(points: np.ndarray, center) -> tuple[np.ndarray, np.ndarray]:
+    """sin and cos of each point's polar angle about ``center``."""
+    d = np.asarray(points, dtype=float)[:, :2] - np.asarray(center, dtype=float)
     t = np.arctan2(d[:, 1], d[:, 0])
-    s, c = np.sin(t), np.cos(t)
+    return np.sin(t), np.cos(t)
+
+
+def _hoop(stress: np.ndarray, s: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """sigma_tt from in-plane (sxx, syy, sxy) at polar angles of sine s, cosine c."""
     return stress[:, 0] * s * s + stress[:, 1] * c * c - 2.0 * stress[:, 2] * s * c
 
 
@@ -66,17 +75,12 @@ class Ring:
         r = np.hypot(*(points - np.asarray(center)).T)
         self.index = np.flatnonzero((r >= inner) & (r < outer))
         self.weights = np.asarray(weights)[self.index]
-        d = points[self.index] - np.asarray(center, dtype=float)
-        t = np.arctan2(d[:, 1], d[:, 0])
-        self._sin, self._cos = np.sin(t), np.cos(t)
+        self._sin, self._cos = _polar_sin_cos(points[self.index], center)
 
     def mean_tangential_stress(self, stress: np.ndarray) -> float:
         """Weighted mean hoop stress (Pa, tension positive) of the ring's points, NaN if
-        it holds none; ``stress`` for all points. The same arithmetic as
-        :func:`tangential_stress`, with the angles found once."""
+        it holds none; ``stress`` for all points (the angles found once)."""
         if len(self.index) == 0:
             return float("nan")
-        ring = in_plane(stress[self.index])
-        s, c = self._sin, self._cos
-        hoop = ring[:, 0] * s * s + ring[:, 1] * c * c - 2.0 * ring[:, 2] * s * c
+        hoop = _hoop(in_plane(stress[self.index]), self._sin, self._cos)
         return float(np.average(hoop, weights=self.weights))

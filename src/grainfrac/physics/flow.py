@@ -624,7 +624,7 @@ def _solve_without_suction(matrix: sp.csr_matrix, rhs: np.ndarray, fixed: np.nda
     for _ in range(max_rounds):
         free = ~fixed & ~dry
         if free.any():
-            p = pressure_system.solve_free(matrix, rhs, free, p, modes)
+            p = pressure_system.solve_free(matrix, rhs, free, p, modes, diagonal)
         negative = free & (p < 0.0)
         wet = np.zeros_like(dry)
         if dry.any():

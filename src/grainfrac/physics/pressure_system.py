@@ -80,7 +80,7 @@ class _LaplacianPattern:
 
     def __init__(self, n: int, ends: np.ndarray):
         self.n, self.ends = n, np.array(ends)
-        values, rows, cols = _laplacian_entries(self.ends, np.ones(len(self.ends)))
+        _, rows, cols = _laplacian_entries(self.ends, np.ones(len(self.ends)))
         # Rows in input order (a stable sort), then scipy's sort within each row,
         # carried out on the entries' numbers to learn where each one goes.
         by_row = np.argsort(rows, kind="stable")
@@ -136,21 +136,25 @@ class LowRank:
 
 
 def solve_free(a: sp.csr_matrix, b: np.ndarray, free: np.ndarray, p: np.ndarray,
-               low_rank: LowRank | None = None) -> np.ndarray:
+               low_rank: LowRank | None = None, diagonal: np.ndarray | None = None
+               ) -> np.ndarray:
     """``p`` with its ``free`` entries solved from ``(a + low_rank) p = b`` on the free
     rows and its other entries held as given.
 
     From ``ITERATIVE_MIN_UNKNOWNS`` free unknowns up by :func:`conjugate_gradients`
-    on the whole system (the held entries masked, starting from ``p``), else (or if
-    they do not converge) by a factorisation of the free block.
+    on the whole system (the held entries masked, starting from ``p``; ``diagonal``,
+    the system's, if the caller has it), else (or if they do not converge) by a
+    factorisation of the free block.
     """
     if np.count_nonzero(free) >= ITERATIVE_MIN_UNKNOWNS:
-        x = conjugate_gradients(a, b, low_rank, p, free=free, max_iterations=MAX_ITERATIONS)
+        x = conjugate_gradients(a, b, low_rank, p, free=free, diagonal=diagonal,
+                                max_iterations=MAX_ITERATIONS)
         if x is not None:
             return x
     held = ~free
-    a_ff = sp.csc_matrix(a[free][:, free])
-    b_f = b[free] - a[free][:, held] @ p[held]
+    rows = a[free]
+    a_ff = sp.csc_matrix(rows[:, free])
+    b_f = b[free] - rows[:, held] @ p[held]
     out = p.copy()
     if low_rank is None:
         out[free] = factorised(a_ff).solve(b_f)
@@ -188,13 +192,15 @@ def woodbury_solve(a: sp.csc_matrix, b: np.ndarray, low_rank: LowRank) -> np.nda
 
 def conjugate_gradients(a: sp.csr_matrix, b: np.ndarray, low_rank: LowRank | None,
                         guess: np.ndarray, free: np.ndarray | None = None,
+                        diagonal: np.ndarray | None = None,
                         tolerance: float = PRESSURE_TOLERANCE,
                         max_iterations: int = MAX_ITERATIONS) -> np.ndarray | None:
     """Jacobi-preconditioned conjugate gradients from ``guess``; None if the residual
     test (``PRESSURE_TOLERANCE``, per node) is not met in ``max_iterations``.
 
     ``free`` (bool), if given: only those entries are solved for, on their rows; the
-    others keep their ``guess`` values. The search directions are zero there, so this
+    others keep their ``guess`` values (``diagonal``: the system's, found here if not
+    given). The search directions are zero there, so this
     is conjugate gradients on the free block without slicing it out (which cost more
     than the iterations on the 100 mm cube).
 
@@ -206,7 +212,8 @@ def conjugate_gradients(a: sp.csr_matrix, b: np.ndarray, low_rank: LowRank | Non
         return a @ x if low_rank is None else a @ x + low_rank @ x
 
     mask = np.ones(len(b)) if free is None else free.astype(float)
-    diagonal = a.diagonal() if low_rank is None else a.diagonal() + low_rank.diagonal()
+    if diagonal is None:
+        diagonal = a.diagonal() if low_rank is None else a.diagonal() + low_rank.diagonal()
     x = np.array(guess, dtype=float)
     r = (b - apply(x)) * mask
     z = r / diagonal
