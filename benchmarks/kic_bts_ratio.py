@@ -4,6 +4,8 @@
     python benchmarks/kic_bts_ratio.py --seeds 3  # seeds 0-2
     python benchmarks/kic_bts_ratio.py --grains 1:2.5:0.625   # finer grains (slower)
     python benchmarks/kic_bts_ratio.py --fissures 0.15        # 15 % of grain boundaries unbonded
+    python benchmarks/kic_bts_ratio.py --dim 3 --seeds 3 --points 1,7 --nscb-speed 5
+        # the Table 3 specimens as solids, two of the points, NSCB platen at 5 mm/s
 
 The laboratory's K_IC / BTS is 1.35 / 6.38 = 0.21 m^0.5 (paper Table 3). With
 the NSCB geometry of Table 3, K_IC = 0.0741 m^0.5 x the nominal bending stress
@@ -74,27 +76,45 @@ def main() -> None:
     parser.add_argument("--fissures", type=float, default=0.0, metavar="FRACTION",
                         help="fraction of grain boundaries that start unbonded in every "
                         "specimen (pre-existing microcracks; default 0)")
+    parser.add_argument("--dim", type=int, choices=(2, 3), default=2,
+                        help="2 (plane-strain sections, default) or 3 (solids)")
+    parser.add_argument("--points", default=None, metavar="I,J,...",
+                        help=f"which points (0-{len(POINTS) - 1} in the order of POINTS; "
+                        "default all)")
+    parser.add_argument("--nscb-speed", type=float, default=None, metavar="MM_PER_S",
+                        help="NSCB platen speed (default: the test's own)")
     args = parser.parse_args()
+    points = (POINTS if args.points is None
+              else [POINTS[int(i)] for i in args.points.split(",")])
+    loading = ({} if args.nscb_speed is None
+               else {"nscb": {"platen_speed_mm_per_s": args.nscb_speed}})
     grains = GrainSpec(**LAB_GRAINS) if args.grains is None else GrainSpec(**dict(zip(
         ("min_edge_mm", "max_edge_mm", "zone_size_mm"), map(float, args.grains.split(":")),
         strict=True)))
     table2 = materials.load_recipe("strathbogie-granite")
     print(f"lab K_IC / BTS = {LAB_RATIO:.3f} m^0.5; seeds 0-{args.seeds - 1}, grains "
           f"{grains.min_edge_mm:g}-{grains.max_edge_mm:g} mm, zones {grains.zone_size_mm:g} mm, "
-          f"fissures {args.fissures:g}")
+          f"fissures {args.fissures:g}, dimension {args.dim}, NSCB platen "
+          f"{args.nscb_speed or 'default'} mm/s")
     print(f"{'point':<22} {'factors':<52} {'G_I':>5} {'G_II/I':>6} {'k':>4} {'BTS':>6} "
           f"{'K_IC':>6} {'K/BTS':>6} {'wall':>6}")
     with calibration.LabBench(list(range(args.seeds)), grains,
-                              fissures=FissureSpec(fraction=args.fissures)) as bench:
-        for label, factors, g, shear_ratio, shape in POINTS:
+                              fissures=FissureSpec(fraction=args.fissures), dimension=args.dim,
+                              loading=loading) as bench:
+        for label, factors, g, shear_ratio, shape in points:
             recipe = calibration.scaled_recipe(varied(table2, g, shear_ratio, shape), factors)
             start = time.perf_counter()
-            means, _ = bench.measure(recipe, ("bts", "nscb"))
-            bts, kic = means["bts_MPa"], means["kic_MPa_sqrt_m"]
+            means, runs = bench.measure(recipe, ("bts", "nscb"))
+            bts = means.get("bts_MPa", float("nan"))
+            kic = means.get("kic_MPa_sqrt_m", float("nan"))
             text = ", ".join(f"{k} {v:g}" for k, v in factors.items()) or "-"
             print(f"{label:<22} {text:<52} {g:>5.0f} {shear_ratio:>6.3g} "
                   f"{shape or 7:>4g} {bts:>6.2f} {kic:>6.3f} {kic / bts:>6.3f} "
                   f"{time.perf_counter() - start:>5.0f}s", flush=True)
+            print("    per seed: BTS " + ", ".join(
+                f"{r.get('bts_MPa', float('nan')):.2f}" for r in runs if "bts_MPa" in r)
+                + "; K_IC " + ", ".join(f"{r['kic_MPa_sqrt_m']:.3f}" for r in runs
+                                       if "kic_MPa_sqrt_m" in r), flush=True)
 
 
 if __name__ == "__main__":

@@ -332,6 +332,25 @@ def test_a_test_without_peak_is_left_out_of_the_means(monkeypatch):
     assert notes == ["Left out of the means (no peak before the strain limit): ucs seed 21."]
 
 
+def test_a_bench_gives_each_test_its_own_loading(monkeypatch):
+    """``loading`` replaces a test's default platen loading in its runs only."""
+    from grainfrac.labtests.config import LabTestConfig
+
+    jobs = []
+
+    def lab_value(job):
+        jobs.append(job)
+        return {"test": job[0], "seed": job[1], "peak_found": True}
+
+    monkeypatch.setattr(calibration.bench, "_lab_value", lab_value)
+    faster = {"platen_speed_mm_per_s": 5.0}
+    with LabBench([0], calibration.GrainSpec(), workers=1, loading={"nscb": faster}) as bench:
+        bench.measure(BASE, ("bts", "nscb"))
+    assert [(job[0], job[-1]) for job in jobs] == [("bts", {}), ("nscb", faster)]
+    assert LabTestConfig(test="nscb", loading=jobs[1][-1]).platen_speed_mm_per_s == 5.0
+    assert LabTestConfig(test="nscb", loading=jobs[0][-1]).platen_speed_mm_per_s == 1.25
+
+
 def test_a_specimen_that_locks_up_holds_the_search_back_by_its_highest_load(monkeypatch):
     """Measured at 2.58 x tan(phi), seeds 0-5: three UCS specimens peaked at 98-115
     MPa, three carried 436-554 MPa without a peak. The mean over those that

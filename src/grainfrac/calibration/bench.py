@@ -27,14 +27,14 @@ __all__ = [
 ]
 
 
-def _lab_value(job: tuple[str, int, materials.RockRecipe, GrainSpec, FissureSpec, int]
-               ) -> dict[str, Any]:
+def _lab_value(job: tuple[str, int, materials.RockRecipe, GrainSpec, FissureSpec, int,
+                          dict[str, Any]]) -> dict[str, Any]:
     """One lab test (worker process): returns its summary."""
     from grainfrac.labtests.run import measure
 
-    test, seed, recipe, grains, fissures, dimension = job
+    test, seed, recipe, grains, fissures, dimension, loading = job
     config = LabTestConfig(test=test, seed=seed, rock=recipe, grains=grains, fissures=fissures,
-                           dimension=dimension)
+                           dimension=dimension, loading=loading)
     return measure(config, recipe=recipe)["summary"]
 
 
@@ -50,12 +50,16 @@ class LabBench:
 
     One process pool serves every evaluation (workers keep their compiled
     kernels); ``close()`` it, or use the bench as a context manager.
-    ``dimension`` 3 runs the Table 3 specimens as solids.
+    ``dimension`` 3 runs the Table 3 specimens as solids. ``loading`` gives a test's
+    :class:`~grainfrac.labtests.config.LoadingSpec` fields in place of its defaults,
+    e.g. ``{"nscb": {"platen_speed_mm_per_s": 5.0}}``.
     """
 
     def __init__(self, seeds: list[int], grains: GrainSpec, workers: int | None = None,
-                 fissures: FissureSpec | None = None, dimension: int = 2):
+                 fissures: FissureSpec | None = None, dimension: int = 2,
+                 loading: dict[str, dict[str, Any]] | None = None):
         self.seeds = list(seeds)
+        self.loading = dict(loading or {})
         self.grains = grains
         self.fissures = fissures or FissureSpec()
         self.dimension = dimension
@@ -79,8 +83,8 @@ class LabBench:
         """Mean of each reported quantity over the seeds (the bench's unless
         ``seeds`` is given), and every test's summary."""
         seeds = self.seeds if seeds is None else list(seeds)
-        jobs = [(t, s, recipe, self.grains, self.fissures, self.dimension)
-                for t in tests for s in seeds]
+        jobs = [(t, s, recipe, self.grains, self.fissures, self.dimension,
+                 self.loading.get(t, {})) for t in tests for s in seeds]
         if self.workers > 1 and len(jobs) > 1:
             if self._pool is None:
                 self._pool = ProcessPoolExecutor(max_workers=self.workers,
