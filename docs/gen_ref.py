@@ -540,7 +540,10 @@ def verification_tables(data: dict[str, Any]) -> str:
         passed = sum(r["passed"] for r in rows)
         command = " ".join(["grainfrac verify", case["case"], *case.get("options", [])])
         wall = case.get("wall_time_s")
-        took = f" ({wall / 60:.1f} min)" if wall else ""
+        took = f" ({wall / 60:.1f} min" if wall else ""
+        if case.get("run_on"):
+            took += f", run on {case['run_on']}" if took else f" (run on {case['run_on']}"
+        took += ")" if took else ""
         lines += [f"### `{command}`", "",
                   f"{passed} of {len(rows)} quantities within tolerance{took}.", "",
                   "| quantity | simulated | analytical | relative error | tolerance | passed |",

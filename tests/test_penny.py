@@ -3,9 +3,11 @@ minute at 4 mm zones; the verification case itself runs at 2 mm).
 
 What holds at 4 mm zones (measured on seed 0): the opening at the injection point
 within 4 % of the M-vertex at 1, 2 and 4 ms, the net pressure at half the radius within
-5 % at 2 ms, the fluid volume balance to round-off, and no open dry rim ahead of the
-fluid. What does not: the radius is 22-23 % larger than the M-vertex's, and the fluid's
-books show the coupling making energy (see the case's rows and docs/how-to/3d.md).
+5 % at 2 ms, the fluid volume balance to round-off, no open dry rim ahead of the
+fluid, and off the plane no faces apart by more than 1.5 % of the opening at the well
+(their elastic relief from the confinement reaches 13 %). What does not: the radius
+is 22-23 % larger than the M-vertex's, and the fluid's books show the coupling making
+energy (see the case's rows and docs/how-to/3d.md).
 """
 
 from __future__ import annotations
@@ -14,7 +16,12 @@ import pytest
 
 from grainfrac.units import MM
 from grainfrac.verification import CASES
-from grainfrac.verification.penny import OPENING_TOLERANCE, PennyConfig, penny_run
+from grainfrac.verification.penny import (
+    OFF_PLANE_FRACTION,
+    OPENING_TOLERANCE,
+    PennyConfig,
+    penny_run,
+)
 
 pytestmark = pytest.mark.slow
 
@@ -50,3 +57,14 @@ def test_the_fracture_is_wet_to_its_tip_and_grows(coarse):
     radii = [s.radius for s in coarse.states]
     assert all(s.dry_rim < 0.05 * s.radius for s in coarse.states)
     assert radii == sorted(radii) and radii[0] > coarse.config.starter_crack_diameter / 2
+
+
+def test_nothing_opens_off_the_plane(coarse):
+    """Off-plane faces stay pressed together: their largest separation is a small
+    fraction of the opening at the well, though the confinement's relief moves them.
+    At these 4 mm zones the bonded vertical faces that meet the open plane come apart
+    by up to 1.5 % (measured, seed 0; 0.6 % at the case's 2 mm zones, within
+    ``OFF_PLANE_FRACTION``), so the test allows twice the case's tolerance."""
+    for s in coarse.states:
+        assert 0.0 <= s.max_off_plane_opening < 2 * OFF_PLANE_FRACTION * s.opening_well
+    assert max(s.off_plane_relief for s in coarse.states) > 0.05 * coarse.states[-1].opening_well

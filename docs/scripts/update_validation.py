@@ -6,6 +6,7 @@ them is typed by hand. Three sources, one subcommand each::
     python docs/scripts/update_validation.py verify            # grainfrac verify --json
     python docs/scripts/update_validation.py verify --kgd      # ... and the KGD cases (~5 min)
     python docs/scripts/update_validation.py verify --3d       # ... and the 3D cases (~70 min)
+    python docs/scripts/update_validation.py verify --3d --only penny   # rerun one case
     python docs/scripts/update_validation.py claims            # the slow paper-claim tests
     python docs/scripts/update_validation.py study DIR         # a `grainfrac study paper` run
 
@@ -48,13 +49,27 @@ def _version() -> str:
     return grainfrac.__version__
 
 
-def verify(kgd: bool, three_d: bool, jobs: int = 1) -> Path:
-    """Run the verification cases through the command line and keep their JSON rows."""
+def verify(kgd: bool, three_d: bool, jobs: int = 1, only: tuple[str, ...] = ()) -> Path:
+    """Run the verification cases through the command line and keep their JSON rows.
+
+    ``only``: rerun just the cases of these names (each with its options) and keep the
+    other cases' rows of the existing file; each case records the day it was run."""
     cases = [*FAST_CASES, *(KGD_CASES if kgd else ()), *(CASES_3D if three_d else ())]
+    path = DATA / "verification.json"
+    kept: list[dict] = []
+    if only:
+        unknown = set(only) - {c[0] for c in cases}
+        if unknown:
+            raise SystemExit(f"--only: no such case among those selected: {sorted(unknown)}")
+        kept = json.loads(path.read_text())["cases"]
+        cases = [c for c in cases if c[0] in only]
     with concurrent.futures.ThreadPoolExecutor(max_workers=jobs) as pool:
         out = list(pool.map(_verify_case, cases))
+    fresh = {(c["case"], tuple(c["options"])): c for c in out}
+    if kept:
+        out = [fresh.pop((c["case"], tuple(c["options"])), c) for c in kept] + list(
+            fresh.values())
     flags = (" --kgd" if kgd else "") + (" --3d" if three_d else "")
-    path = DATA / "verification.json"
     _write(path, {"command": f"python docs/scripts/update_validation.py verify{flags}",
                   "generated": datetime.date.today().isoformat(),
                   "grainfrac_version": _version(), "cases": out})
@@ -73,7 +88,8 @@ def _verify_case(case: tuple[str, ...]) -> dict:
     wall = time.perf_counter() - start
     print(f"{' '.join(case)}: {sum(r['passed'] for r in rows)} of {len(rows)} passed "
           f"({wall:.0f} s)", flush=True)
-    return {"case": name, "options": options, "wall_time_s": wall, "rows": rows}
+    return {"case": name, "options": options, "wall_time_s": wall,
+            "run_on": datetime.date.today().isoformat(), "rows": rows}
 
 
 def claims(cache: Path) -> Path:
@@ -136,6 +152,8 @@ def main() -> None:
     v.add_argument("--3d", dest="three_d", action="store_true",
                    help="include the 3D cases (~70 min on one core)")
     v.add_argument("--jobs", type=int, default=1, help="cases run at the same time")
+    v.add_argument("--only", action="append", default=[], metavar="CASE",
+                   help="rerun only this case (repeatable); the others' rows are kept")
     c = sub.add_parser("claims", help="the slow paper-claim tests")
     c.add_argument("--cache", type=Path, default=ROOT / "build" / "claims",
                    help="where the claim sweeps are kept between calls")
@@ -146,7 +164,7 @@ def main() -> None:
                         "(e.g. '--dim 3 --realisations 2')")
     args = parser.parse_args()
     if args.what == "verify":
-        verify(args.kgd, args.three_d, max(1, args.jobs))
+        verify(args.kgd, args.three_d, max(1, args.jobs), tuple(args.only))
     elif args.what == "claims":
         claims(args.cache)
     else:

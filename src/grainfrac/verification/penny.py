@@ -22,7 +22,17 @@ How the simulated quantities are read (one realisation of the grains):
   injection point (their change since injection began);
 - **pressure at half the radius**: the mean fluid pressure, less the confinement, of
   the plane's sub-contacts within half a zone of half the measured radius, against the
-  reference at half its own radius (both at rho = 1/2).
+  reference at half its own radius (both at rho = 1/2);
+- **opening off the plane**: the largest separation (faces apart, not their change
+  since injection) of a sub-contact off the plane. The confinement presses every
+  contact shut by ``sigma_0 / kn`` (5 um at 2 mm zones); where the fracture unloads a
+  grain boundary off the plane it springs back by up to that much
+  (``off_plane_relief``: 6 % of the opening at the well at 2 mm zones, on vertical
+  faces beside the plane near the tip) while its faces still press on each other.
+  That is the contact spring's elastic relief, not an opening. The faces that do come
+  apart are bonded vertical faces where they meet the open plane, pulled by its
+  flanks (seed 0: 0.6, 0.4 and 0.2 % of the opening at the well at 1, 2 and 4 ms at
+  2 mm zones; 1.2, 1.5 and 0.3 % at 4 mm).
 
 The cube is confined by an isotropic stress (1 MPa, five to ten times the net
 pressures) that holds the plane shut where the fluid has not arrived: the M-vertex
@@ -99,7 +109,8 @@ class PennyMeasure:
     dry_rim: float  # open but dry: radius of all the open plane less ``radius``
     opening_well: float
     pressure_half_radius: float
-    max_off_plane_opening: float
+    max_off_plane_opening: float  # largest separation off the plane (m, >= 0)
+    off_plane_relief: float  # largest |change of opening| off the plane since injection (m)
     injected: float
     stored_gain: float
     energy: dict[str, float] = field(default_factory=dict)
@@ -193,7 +204,8 @@ def penny_run(config: PennyConfig | None = None, seed: int = 0) -> PennyRun:
     for t in sorted(config.times):
         while mech.time - start < t - 0.5 * m.dt:
             hm.advance(min(config.fluid_step, t - (mech.time - start)), config.rate)
-        opening = contact_opening(assembly, mech.u) - opening0
+        separation = contact_opening(assembly, mech.u)
+        opening = separation - opening0
         w_well = float(np.mean(opening[well & on_plane]))
         # The M-vertex has no fluid lag: the fracture is where the plane is open and
         # holds fluid (a dry, open rim ahead of the fluid is left out).
@@ -206,7 +218,8 @@ def penny_run(config: PennyConfig | None = None, seed: int = 0) -> PennyRun:
         run.states.append(PennyMeasure(
             time=mech.time - start, radius=radius, dry_rim=dry_rim, opening_well=w_well,
             pressure_half_radius=pressure,
-            max_off_plane_opening=float(np.max(np.abs(opening[~on_plane]))),
+            max_off_plane_opening=float(np.max(separation[~on_plane], initial=0.0)),
+            off_plane_relief=float(np.max(np.abs(opening[~on_plane]))),
             injected=float(hm.state.injected),
             stored_gain=hm.state.stored(~network.fixed) - held0 + hm.state.outflow,
             energy=hm.hydraulic_energy()))
@@ -233,10 +246,10 @@ def penny(seed: int = 0, *, config: PennyConfig | None = None) -> list[Compariso
         ]
     last = run.states[-1]
     books = last.energy
+    off_plane = max(s.max_off_plane_opening / s.opening_well for s in run.states)
     rows += [
-        # Compared as 1 + x against 1: the relative error is x.
-        Comparison(CASE, "off_plane_opening_over_well_opening",
-                   1.0 + last.max_off_plane_opening / last.opening_well, 1.0,
+        # Compared as 1 + x against 1: the relative error is x (the largest at any time).
+        Comparison(CASE, "off_plane_separation_over_well_opening", 1.0 + off_plane, 1.0,
                    OFF_PLANE_FRACTION),
         Comparison(CASE, "fluid_volume_stored_plus_outflow_m3", last.stored_gain,
                    last.injected, VOLUME_BALANCE_TOLERANCE),
