@@ -52,7 +52,7 @@ POINTS = [
     ("  brittle shear, G_I", START, 400.0, 0.0325, None),
     ("  tough shear", START, 130.0, 10.0, None),
     ("  Weibull k 2", START, 130.0, 1.0, 2.0),
-    ("Weibull k 1.5, 2 x tan", {"friction": 2.0}, 0.0, 1.0, 1.5),
+    ("Weibull k 1.5, tan / 2", {"friction": 0.5}, 0.0, 1.0, 1.5),
 ]
 
 

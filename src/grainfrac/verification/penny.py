@@ -31,8 +31,7 @@ How the simulated quantities are read (one realisation of the grains):
   faces beside the plane near the tip) while its faces still press on each other.
   That is the contact spring's elastic relief, not an opening. The faces that do come
   apart are bonded vertical faces where they meet the open plane, pulled by its
-  flanks (seed 0: 0.6, 0.4 and 0.2 % of the opening at the well at 1, 2 and 4 ms at
-  2 mm zones; 1.2, 1.5 and 0.3 % at 4 mm).
+  flanks (measured in docs/decisions/0018-3d-hydromechanics.md).
 
 The cube is confined by an isotropic stress (1 MPa, five to ten times the net
 pressures) that holds the plane shut where the fluid has not arrived: the M-vertex
