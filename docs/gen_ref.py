@@ -539,11 +539,9 @@ def verification_tables(data: dict[str, Any]) -> str:
         rows = case["rows"]
         passed = sum(r["passed"] for r in rows)
         command = " ".join(["grainfrac verify", case["case"], *case.get("options", [])])
-        wall = case.get("wall_time_s")
-        took = f" ({wall / 60:.1f} min" if wall else ""
-        if case.get("run_on"):
-            took += f", run on {case['run_on']}" if took else f" (run on {case['run_on']}"
-        took += ")" if took else ""
+        about = [f"{case['wall_time_s'] / 60:.1f} min"] if case.get("wall_time_s") else []
+        about += [f"run on {case['run_on']}"] if case.get("run_on") else []
+        took = f" ({', '.join(about)})" if about else ""
         lines += [f"### `{command}`", "",
                   f"{passed} of {len(rows)} quantities within tolerance{took}.", "",
                   "| quantity | simulated | analytical | relative error | tolerance | passed |",

@@ -356,7 +356,7 @@ def test_laplacian_pattern_gives_scipys_conversion_bit_for_bit():
         values, rows, cols = pressure_system._laplacian_entries(ends, cond)
         n = network.n_unknowns
         reference = sp.coo_matrix((values, (rows, cols)), shape=(n, n)).tocsr()
-        got = flow._laplacian(network, np.array(ends), cond)
+        got = pressure_system.laplacian(network.n_unknowns, np.array(ends), cond)
         for part in ("indptr", "indices", "data"):
             assert np.array_equal(getattr(got, part), getattr(reference, part)), part
     assert pressure_system._last_pattern is not None and pressure_system._last_pattern.exact

@@ -466,11 +466,6 @@ def _sources(network: FlowNetwork, injection_rate: float) -> np.ndarray:
     return q
 
 
-def _laplacian(network: FlowNetwork, ends: np.ndarray, cond: np.ndarray) -> sp.csr_matrix:
-    """The graph Laplacian of the pipes ``ends`` (k, 2) with conductances ``cond``."""
-    return pressure_system.laplacian(network.n_unknowns, ends, cond)
-
-
 @dataclass(frozen=True)
 class SharedCompliance:
     """The opening (m3/Pa) of pore i under a pressure change at pore j through the crack
@@ -525,7 +520,8 @@ def implicit_step(network: FlowNetwork, state: FluidState, aperture: np.ndarray,
     c = _compressibility(network, fluid)
     v_new = storage_volume(network, aperture, well_volume)
     beta = np.zeros(network.n_unknowns) if compliance is None else compliance
-    lap = _laplacian(network, *(pipe_links or links(network, aperture, fluid)))
+    lap = pressure_system.laplacian(network.n_unknowns,
+                                   *(pipe_links or links(network, aperture, fluid)))
     source = _sources(network, injection_rate)
     storage = v_new * c + beta
     rhs = state.content - v_new + beta * state.pressure + dt * source
@@ -644,7 +640,7 @@ def explicit_step(network: FlowNetwork, state: FluidState, aperture: np.ndarray,
     """Forward-Euler reference of :func:`implicit_step` (stable only for tiny ``dt``)."""
     c = _compressibility(network, fluid)
     v_new = storage_volume(network, aperture)
-    lap = _laplacian(network, *links(network, aperture, fluid))
+    lap = pressure_system.laplacian(network.n_unknowns, *links(network, aperture, fluid))
     source = _sources(network, injection_rate)
     net_in = -(lap @ state.pressure) + source
     free = ~network.fixed
