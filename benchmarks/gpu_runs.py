@@ -5,9 +5,10 @@ Two measurements, each a plain ``run_scenario`` into a run directory:
 ``same-answers``
     A small 3D hybrid slab (``tests/data/hybrid3d-small.toml``: 26 x 26 x 6 mm, SCDA
     to 3 MPa, drill-out, injection past breakdown; about 23,000 explicit steps) on
-    the CPU backend and on the CUDA backend. Prints the crack catalogues compared as
-    sets of (contact, mode), whether the order is the same, and the largest relative
-    difference of the history's well pressures.
+    the CPU backend and on the CUDA backend, once for each way the GPU sums nodal
+    forces (``--sums``: ordered, the CPU's order; atomic). Prints the crack catalogues
+    compared as sets of (contact, mode), whether the order is the same, and the
+    largest relative difference of the history's well pressures.
 
 ``cube``
     ``examples/3d/hybrid-case3-cube.toml`` (the paper's 100 mm cube, Case 3, SCDA
@@ -50,6 +51,7 @@ import numpy as np
 import grainfrac.run as run_module
 from grainfrac.io.config import validate
 from grainfrac.physics import flow
+from grainfrac.physics.cuda.mechanics import SUMS_VARIABLE
 from grainfrac.physics.model import build_mechanical_model
 from grainfrac.physics.solver import BACKEND_VARIABLE, MechanicsSolver
 from grainfrac.run import RunInterrupted
@@ -88,15 +90,19 @@ def cracks(out: Path) -> list[tuple[int, str]]:
     return [(int(r["contact"]), r["mode"]) for r in rows]
 
 
-def same_answers(out: Path) -> dict:
+def same_answers(out: Path, sums: str) -> dict:
     scenario = validate(Scenario, tomllib.loads(SMALL_HYBRID.read_text()))
     result = {}
+    os.environ[SUMS_VARIABLE] = sums
+    say(f"same-answers, {sums} sums on the GPU")
     for name in ("cpu", "cuda"):
         start = time.perf_counter()
         with backend(name):
-            summary = run_scenario(scenario, scenario.recipe(), out / name, overwrite=True)
+            summary = run_scenario(scenario, scenario.recipe(), out / f"{name}-{sums}",
+                                   overwrite=True)
         result[name] = {"wall_s": time.perf_counter() - start, "summary": summary,
-                        "cracks": cracks(out / name), "history": history(out / name)}
+                        "cracks": cracks(out / f"{name}-{sums}"),
+                        "history": history(out / f"{name}-{sums}")}
         say(f"same-answers: {name} run {result[name]['wall_s']:.1f} s, "
             f"{summary['n_cracks']} cracks, breakdown {summary['breakdown_pressure_MPa']} MPa")
     cpu, gpu = result["cpu"], result["cuda"]
@@ -234,6 +240,9 @@ def main() -> None:
     parser.add_argument("--limit-s", type=float, help="stop the cube run after this long")
     parser.add_argument("--cpu-steps", type=int, default=20,
                         help="explicit steps of the cube model timed on the CPU (0: none)")
+    parser.add_argument("--sums", nargs="+", choices=("ordered", "atomic"),
+                        default=["ordered", "atomic"],
+                        help="how the GPU sums nodal forces in same-answers (both by default)")
     parser.add_argument("--profile", action="store_true",
                         help="profile the cube run (cProfile): cube-BACKEND.prof in --out, "
                              "and the top functions printed")
@@ -248,7 +257,8 @@ def main() -> None:
     args.out.mkdir(parents=True, exist_ok=True)
     results = {}
     if "same-answers" in args.what:
-        results["same_answers"] = same_answers(args.out)
+        results["same_answers"] = {sums: same_answers(args.out, sums) for sums in args.sums}
+        os.environ.pop(SUMS_VARIABLE, None)  # the cube runs with the default
     if "cube" in args.what:
         results["cube"] = cube(args.out, args.backend, args.limit_s, args.cpu_steps,
                                args.profile)

@@ -5,6 +5,7 @@ Run by ``tests/test_cuda_backend.py`` in a subprocess with ``NUMBA_ENABLE_CUDASI
 Usage: ``python tests/cuda_compare.py N_CELLS STEPS CYCLES VELOCITY [extras]``; with
 ``extras`` a platen presses on the top face and a pore's fluid pressure follows
 the void of the middle contact plane (:class:`~grainfrac.physics.solver.PoreSprings`).
+``$GRAINFRAC_CUDA_SUMS`` chooses the GPU's ordered or atomic sums.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ import numpy as np
 
 from grainfrac.loading.boundary import Platen
 from grainfrac.physics.cuda import SIMULATOR, launch
+from grainfrac.physics.cuda.mechanics import ordered_sums
 from grainfrac.physics.cuda.synthetic import grain_block, pull_loads
 from grainfrac.physics.records import ENERGY_KEYS
 from grainfrac.physics.solver import MechanicsSolver, NumericalBlowUp, PoreSprings
@@ -58,6 +60,7 @@ def main() -> None:
         gpu_host.cycle(steps)
     report = {
         "simulator": SIMULATOR,
+        "ordered": ordered_sums(),
         "tets": block.model.n_elements, "contacts": block.model.n_contacts,
         "steps": steps * cycles,
         "cpu_cracks": sorted(zip(cpu.cracks.contact, cpu.cracks.mode, strict=True)),
@@ -73,6 +76,7 @@ def main() -> None:
         "sigma_n_rel": relative(cpu.sigma_n, gpu_host.sigma_n),
         "tau_rel": relative(cpu.tau, gpu_host.tau),
         "damage_rel": relative(cpu.damage, gpu_host.damage),
+        "pressure_rel": relative(cpu.contact_pressure, gpu_host.contact_pressure),
         "energy_rel": {k: abs(float(cpu.energies[k][0] - gpu_host.energies[k][0]))
                        / max(abs(float(cpu.energies[k][0])), 1e-300) for k in ENERGY_KEYS},
         "energy_cpu": {k: float(cpu.energies[k][0]) for k in ENERGY_KEYS},

@@ -6,15 +6,25 @@ The physics is not re-written here: the element stress and nodal forces
 (:func:`~grainfrac.physics.kernels.relative_normal`) and the contact law
 (:func:`~grainfrac.physics.kernels.contact_law`) are the CPU backend's ``@njit``
 functions, which numba compiles for the device when a ``@cuda.jit`` kernel calls
-them. What is here is the parallel bookkeeping: float64 atomic scatter of nodal
-forces, block reductions of the energy books (one atomic per block, not per
+them. What is here is the parallel bookkeeping: how nodal forces and pore voids
+are summed, block reductions of the energy books (one atomic per block, not per
 thread), an atomic crack counter and list, and a device-side stop flag for a
 blow-up so that no step needs the host.
 
 Each kernel mirrors one stage of :func:`~grainfrac.physics.kernels.run_steps`
-and keeps its order of operations per element / contact / node; only the order
-in which nodal forces and energy sums are added differs (atomics), which changes
-results by round-off (see ``tests/test_cuda_backend.py``).
+and keeps its order of operations per element / contact / node. Sums over many
+threads come in two kinds (``ordered``):
+
+* ordered (the default): elements, contacts and platen nodes write their forces
+  to their own slots, and each node adds its slots in the CPU's serial order
+  (cells ascending, then contacts ascending, then platen nodes) while it is
+  updated; each pore adds its sub-contacts' voids in order. Every state array is
+  then the CPU backend's to the last bit under the simulator, and a GPU run is
+  reproducible run to run. Only the energy books (block reductions) are summed
+  in another order.
+* atomic: float64 atomic adds into the nodes and pores, fewer memory passes; the
+  order of the adds changes from run to run, so states differ from the CPU's by
+  round-off, which a run with cracks amplifies (docs/performance.md).
 
 Kernels are built per dimension ``d`` and block size so that the local arrays
 have compile-time sizes and the reductions a power-of-two shared buffer.
@@ -50,8 +60,9 @@ INTACT = kernels.INTACT
 
 
 @cache
-def step_kernels(d: int, tpb: int):
-    """The kernels for dimension ``d`` and ``tpb`` threads per block (a power of 2)."""
+def step_kernels(d: int, tpb: int, ordered: bool = True):
+    """The kernels for dimension ``d``, ``tpb`` threads per block (a power of 2) and
+    ordered or atomic sums (module doc)."""
     if tpb & (tpb - 1):
         raise ValueError(f"threads per block must be a power of two, got {tpb}")
     n_tangents = d - 1
@@ -107,8 +118,9 @@ def step_kernels(d: int, tpb: int):
     def element_forces(step, dt, u, cells, grad, measure, lam, mu, stress, eigenstrain,
                        eigenstrain_rate, initial_strain, force, energy, control, vmax,
                        velocity_limit, platen_position, platen_velocity, platen_reaction,
-                       pore_void):
-        """Eigenstrain growth, f_a = -V B_a^T sigma scattered with atomics, expansion work.
+                       pore_void, cell_force):
+        """Eigenstrain growth, f_a = -V B_a^T sigma (into ``cell_force[e, a]`` as
+        ``V B_a^T sigma`` when ordered, else added to the nodes), expansion work.
 
         Also the step's first work: stop if the previous step blew up (``vmax``),
         move the platens, zero their reactions and the pores' voids.
@@ -148,8 +160,12 @@ def step_kernels(d: int, tpb: int):
                 for k in range(3):
                     n = cells[e, k]
                     fx, fy = triangle.node_force(elements, e, k, measure[e], sxx, syy, sxy)
-                    cuda.atomic.add(force, (n, 0), -fx)
-                    cuda.atomic.add(force, (n, 1), -fy)
+                    if ordered:
+                        cell_force[e, k, 0] = fx
+                        cell_force[e, k, 1] = fy
+                    else:
+                        cuda.atomic.add(force, (n, 0), -fx)
+                        cuda.atomic.add(force, (n, 1), -fy)
             else:
                 sxx, syy, szz, syz, sxz, sxy = tetrahedron.stress(raw(u), elements, state, e)
                 stress[e, 0] = sxx
@@ -163,9 +179,14 @@ def step_kernels(d: int, tpb: int):
                     n = cells[e, k]
                     fx, fy, fz = tetrahedron.node_force(elements, e, k, measure[e], sxx, syy,
                                                         szz, syz, sxz, sxy)
-                    cuda.atomic.add(force, (n, 0), -fx)
-                    cuda.atomic.add(force, (n, 1), -fy)
-                    cuda.atomic.add(force, (n, 2), -fz)
+                    if ordered:
+                        cell_force[e, k, 0] = fx
+                        cell_force[e, k, 1] = fy
+                        cell_force[e, k, 2] = fz
+                    else:
+                        cuda.atomic.add(force, (n, 0), -fx)
+                        cuda.atomic.add(force, (n, 1), -fy)
+                        cuda.atomic.add(force, (n, 2), -fz)
             if rate != 0.0:
                 work = -(measure[e] * trace * rate * dt)
         total = block_sum(buf, work)
@@ -174,8 +195,9 @@ def step_kernels(d: int, tpb: int):
 
     @cuda.jit
     def pore_void_sum(u, contact_nodes, frame, area, pore_contact, pore, lower,
-                      initial_aperture, pore_void, control):
-        """V_k = sum A max(a0 + u_n, lower) over pore k's sub-contacts (atomics)."""
+                      initial_aperture, pore_void, pore_term, control):
+        """V_k = sum A max(a0 + u_n, lower) over pore k's sub-contacts: each term into
+        ``pore_term`` when ordered (:func:`pore_void_gather` adds them), else atomics."""
         if control[HALTED] != 0:
             return
         j = cuda.grid(1)
@@ -184,7 +206,22 @@ def step_kernels(d: int, tpb: int):
             u_n = kernels.relative_normal(raw(u), contact_nodes[c, 0], contact_nodes[c, 1],
                                           raw(frame), c)
             aperture = max(initial_aperture + u_n, lower[j])
-            cuda.atomic.add(pore_void, pore[j], area[c] * aperture)
+            if ordered:
+                pore_term[j] = area[c] * aperture
+            else:
+                cuda.atomic.add(pore_void, pore[j], area[c] * aperture)
+
+    @cuda.jit
+    def pore_void_gather(pore_ptr, pore_slot, pore_term, pore_void, control):
+        """Pore k's void: its sub-contacts' terms added in the listed order (as the CPU)."""
+        if control[HALTED] != 0:
+            return
+        k = cuda.grid(1)
+        if k < pore_void.shape[0]:
+            total = 0.0
+            for s in range(pore_ptr[k], pore_ptr[k + 1]):
+                total += pore_term[pore_slot[s]]
+            pore_void[k] = total
 
     @cuda.jit
     def pore_pressure(pore_contact, pore, held_void, storage, ceiling, pore_void,
@@ -202,9 +239,11 @@ def step_kernels(d: int, tpb: int):
     def contact_forces(step, dt, allow_failure, u, v, force, contact_nodes, frame, area, kn, ks,
                        tan_phi, cohesion, tensile_strength, opening_to_fail, slip_to_fail,
                        bonded, status, sigma_n, tau, damage, plastic_opening, pressure,
-                       released, opening_offset, energy, control, crack_contact, crack_step):
+                       released, opening_offset, energy, control, crack_contact, crack_step,
+                       on_second):
         """Contact springs and fluid pressure through the scalar contact law (one thread
-        a sub-contact, see :func:`grainfrac.physics.kernels.contact_forces`)."""
+        a sub-contact, see :func:`grainfrac.physics.kernels.contact_forces`). The force
+        on the second node goes to ``on_second[c]`` when ordered, else into the nodes."""
         buf = cuda.shared.array(tpb, float64)
         if control[HALTED] != 0:
             return
@@ -261,8 +300,11 @@ def step_kernels(d: int, tpb: int):
                 f = fn * frame[c, 0, i]
                 for t in range(n_tangents):
                     f -= (trial[t] * face) * frame[c, 1 + t, i]
-                cuda.atomic.add(force, (b, i), f)
-                cuda.atomic.add(force, (a, i), -f)
+                if ordered:
+                    on_second[c, i] = f
+                else:
+                    cuda.atomic.add(force, (b, i), f)
+                    cuda.atomic.add(force, (a, i), -f)
         total = block_sum(buf, friction)
         if cuda.threadIdx.x == 0 and total != 0.0:
             cuda.atomic.add(energy, E_FRICTION, total)
@@ -277,7 +319,8 @@ def step_kernels(d: int, tpb: int):
     def platen_forces(x, u, force, platen_of, platen_nodes, axis, side, position, stiffness,
                       reaction, node_force, control):
         """Penalty force of the platens on the nodes past their planes
-        (:func:`grainfrac.physics.kernels.platen_forces`), one thread a platen node."""
+        (:func:`grainfrac.physics.kernels.platen_forces`), one thread a platen node.
+        Ordered, the nodes gather ``node_force`` and :func:`platen_reactions` sums it."""
         if control[HALTED] != 0:
             return
         i = cuda.grid(1)
@@ -287,16 +330,37 @@ def step_kernels(d: int, tpb: int):
             ax = axis[p]
             pen = (x[n, ax] + u[n, ax] - position[p]) * side[p]
             f = -side[p] * stiffness[i] * pen if pen > 0.0 else 0.0
-            cuda.atomic.add(force, (n, ax), f)
             node_force[i] = f
-            cuda.atomic.add(reaction, p, f)
+            if not ordered:
+                cuda.atomic.add(force, (n, ax), f)
+                cuda.atomic.add(reaction, p, f)
+
+    @cuda.jit
+    def platen_reactions(offsets, node_force, reaction, control):
+        """Each platen's reaction: its nodes' forces added in order (one thread a platen)."""
+        if control[HALTED] != 0:
+            return
+        p = cuda.grid(1)
+        if p < reaction.shape[0]:
+            total = 0.0
+            for i in range(offsets[p], offsets[p + 1]):
+                total += node_force[i]
+            reaction[p] = total
 
     @cuda.jit
     def update_nodes(step, dt, alpha, keep_force, u, v, force, mass, external, fixed,
-                     prescribed_velocity, energy, vmax, control):
+                     prescribed_velocity, energy, vmax, control, cell_ptr, cell_slot,
+                     contact_ptr, contact_slot, platen_ptr, platen_slot, cell_force, on_second,
+                     platen_axis, node_force):
         """Local damping and a central-difference step
-        (:func:`grainfrac.physics.kernels.update_nodes`); zeroes the force for the next
-        step unless ``keep_force`` (the call's last step leaves it, as the CPU does)."""
+        (:func:`grainfrac.physics.kernels.update_nodes`).
+
+        Ordered, each node first adds its cells', contacts' and platen nodes' forces
+        in the CPU's order (the ``*_ptr`` / ``*_slot`` lists of
+        :func:`grainfrac.physics.cuda.stepper.node_slots`; ``platen_axis`` is the axis
+        of each platen node) and keeps the sum in
+        ``force``. Atomic, it reads ``force`` and zeroes it for the next step unless
+        ``keep_force`` (the call's last step leaves it, as the CPU does)."""
         buf = cuda.shared.array(tpb, float64)
         if control[HALTED] != 0:
             return
@@ -305,9 +369,32 @@ def step_kernels(d: int, tpb: int):
         w_damp = 0.0
         v_top = 0.0
         if n < u.shape[0]:
+            if ordered:
+                gathered = cuda.local.array(d, float64)
+                for i in range(d):
+                    gathered[i] = 0.0
+                for s in range(cell_ptr[n], cell_ptr[n + 1]):
+                    slot = cell_slot[s]  # (d + 1) e + k
+                    e = slot // (d + 1)
+                    k = slot - e * (d + 1)
+                    for i in range(d):
+                        gathered[i] -= cell_force[e, k, i]
+                for s in range(contact_ptr[n], contact_ptr[n + 1]):
+                    slot = contact_slot[s]  # 2 c + (1 if the node is the second)
+                    c = slot >> 1
+                    for i in range(d):
+                        if slot & 1:
+                            gathered[i] += on_second[c, i]
+                        else:
+                            gathered[i] -= on_second[c, i]
+                for s in range(platen_ptr[n], platen_ptr[n + 1]):
+                    j = platen_slot[s]
+                    gathered[platen_axis[j]] += node_force[j]
+                for i in range(d):
+                    force[n, i] = gathered[i]
             for i in range(d):
                 f = force[n, i] + external[n, i]
-                if not keep_force:
+                if not keep_force and not ordered:
                     force[n, i] = 0.0
                 if fixed[n, i]:
                     v[n, i] = prescribed_velocity[n, i]
@@ -348,8 +435,9 @@ def step_kernels(d: int, tpb: int):
 
     return {
         "fill": fill, "fill_rows": fill_rows, "element_forces": element_forces,
-        "pore_void_sum": pore_void_sum,
+        "pore_void_sum": pore_void_sum, "pore_void_gather": pore_void_gather,
         "pore_pressure": pore_pressure, "contact_forces": contact_forces,
-        "platen_forces": platen_forces, "update_nodes": update_nodes,
+        "platen_forces": platen_forces, "platen_reactions": platen_reactions,
+        "update_nodes": update_nodes,
         "platen_work": platen_work,
     }

@@ -13,11 +13,13 @@ restore, a checkpoint's load: :meth:`MechanicsSolver.note_state_edit`).
 
 from __future__ import annotations
 
+import os
 import time
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from grainfrac.errors import GrainfracError
 from grainfrac.physics.cuda import stepper
 from grainfrac.physics.records import CrackLog, NodeLoads, StepControl
 
@@ -39,6 +41,18 @@ INPUT_ELEMENT_ARRAYS = ("eigenstrain_rate",)
 INPUT_CONTACT_ARRAYS = ("pressure", "opening_offset")
 
 
+# Environment variable choosing how the GPU sums nodal forces (see CudaMechanics).
+SUMS_VARIABLE = "GRAINFRAC_CUDA_SUMS"
+
+
+def ordered_sums() -> bool:
+    """Whether ``$GRAINFRAC_CUDA_SUMS`` asks for ordered sums (the default) or atomics."""
+    value = os.environ.get(SUMS_VARIABLE, "ordered")
+    if value not in ("ordered", "atomic"):
+        raise GrainfracError(f"{SUMS_VARIABLE} must be 'ordered' or 'atomic', got {value!r}")
+    return value == "ordered"
+
+
 class CudaMechanics:
     """Advance a :class:`MechanicsSolver`'s state on the GPU with the same semantics
     as :meth:`MechanicsSolver.cycle` (which calls it for ``backend="cuda"``).
@@ -49,16 +63,26 @@ class CudaMechanics:
         The CPU solver whose model, loads and state are copied to the device.
     tpb
         Threads per block (a power of two).
+    ordered
+        Sum nodal forces and pore voids in the CPU's order (the CPU's states to the
+        last bit under the simulator, reproducible runs on a GPU) or with float64
+        atomics (fewer memory passes; round-off that changes from run to run). See
+        :mod:`grainfrac.physics.cuda.device_kernels`. Default: ``$GRAINFRAC_CUDA_SUMS``
+        (``ordered`` or ``atomic``), else ordered.
     """
 
-    def __init__(self, solver: MechanicsSolver, *, tpb: int = stepper.DEFAULT_TPB):
+    def __init__(self, solver: MechanicsSolver, *, tpb: int = stepper.DEFAULT_TPB,
+                 ordered: bool | None = None):
         self.solver = solver
         self.tpb = tpb
+        self.ordered = ordered_sums() if ordered is None else ordered
         # The solver's count of host edits of the state that the device holds.
         self.state_edits = 0
         m = solver.model
         self._elements = stepper.to_device(m.elements)
         self._contacts = stepper.to_device(m.contacts)
+        self._order = (stepper.GatherOrder.of(m.n_nodes, m.elements.cells, m.contacts.nodes)
+                       if ordered else None)
         c = m.n_contacts
         self._cracks = stepper.to_device(CrackLog(np.zeros(max(c, 1), np.int64),
                                                   np.zeros(max(c, 1), np.int64)))
@@ -121,6 +145,7 @@ class CudaMechanics:
             self._nodes, self._loads, self._elements, self._element_state, self._contacts,
             self._contact_state, self._platens, self._pores_device(), self._energies,
             self._cracks, tpb=self.tpb, sync_every=max(int(n_steps), 1), timings=timings,
+            ordered=self.ordered, order=self._order,
         )
 
     def cycle(self, n_steps: int, *, timings: dict[str, float] | None = None

@@ -96,6 +96,33 @@ def _blocks(n: int, tpb: int) -> int:
     return max(1, (n + tpb - 1) // tpb)
 
 
+def node_slots(n_nodes: int, node_of_slot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """CSR lists ``(ptr, slot)``: node ``n``'s slots are ``slot[ptr[n]:ptr[n + 1]]``,
+    ascending. ``node_of_slot`` is the node of each slot, e.g. ``cells.ravel()`` (slot
+    ``(d + 1) e + k``) or ``contacts.nodes.ravel()`` (slot ``2 c + side``): ascending
+    slots are the CPU kernels' order of adding into a node."""
+    node_of_slot = np.asarray(node_of_slot, dtype=np.int64).ravel()
+    ptr = np.zeros(n_nodes + 1, dtype=np.int64)
+    np.cumsum(np.bincount(node_of_slot, minlength=n_nodes), out=ptr[1:])
+    return ptr, np.argsort(node_of_slot, kind="stable").astype(np.int64)
+
+
+class GatherOrder(NamedTuple):
+    """Device CSR lists of each node's cell and contact slots (:func:`node_slots`): what
+    the ordered sums need of a model, made once per model."""
+
+    cell_ptr: object
+    cell_slot: object
+    contact_ptr: object
+    contact_slot: object
+
+    @classmethod
+    def of(cls, n_nodes: int, cells: np.ndarray, contact_nodes: np.ndarray) -> GatherOrder:
+        """From host arrays: ``cells`` (n, d + 1) and the contacts' node pairs."""
+        return cls(*(cuda.to_device(a) for a in (*node_slots(n_nodes, cells),
+                                                 *node_slots(n_nodes, contact_nodes))))
+
+
 def fetch_cracks(cracks: CrackLog, n: int) -> tuple[np.ndarray, np.ndarray]:
     """The first ``n`` entries of a device crack log, in the CPU backend's order
     (by step, then contact): the device appends within a step in any order."""
@@ -112,7 +139,8 @@ def run_steps_cuda(control: StepControl, nodes: NodeState, loads: NodeLoads,
                    contact_state: ContactState, platens: PlatenSet, pores: PoreSpringSet,
                    energies, cracks: CrackLog, *, tpb: int = DEFAULT_TPB,
                    sync_every: int = DEFAULT_SYNC_EVERY,
-                   timings: dict[str, float] | None = None) -> tuple[int, int]:
+                   timings: dict[str, float] | None = None, ordered: bool = True,
+                   order: GatherOrder | None = None) -> tuple[int, int]:
     """Advance ``control.n_steps`` explicit steps on the GPU.
 
     Same semantics as :func:`grainfrac.physics.kernels.run_steps`, with every
@@ -121,14 +149,21 @@ def run_steps_cuda(control: StepControl, nodes: NodeState, loads: NodeLoads,
     ``cracks`` in any order within a step (:func:`fetch_cracks` sorts them).
     Returns (number of cracks appended, steps done); a run whose velocities
     exceed ``velocity_limit`` stops after the offending step, as on the CPU. On
-    such a stop ``nodes.force`` holds zeros rather than the last step's forces.
+    such a stop ``nodes.force`` holds zeros (atomic sums) or the step before's
+    forces (ordered) rather than the last step's.
+
+    ``ordered`` sums nodal forces and pore voids in the CPU's order (bit for bit its
+    states under the simulator, reproducible on a GPU); otherwise with atomics
+    (:mod:`~grainfrac.physics.cuda.device_kernels`). ``order``: the model's
+    :class:`GatherOrder`, made here from the device arrays if not given.
 
     With ``timings`` (a dict) the host waits for the device after each stage and
     adds its wall time (s) under "elements", "contacts" (with the pores),
     "platens" and "nodes": a time split for benchmarks, slower than a plain run.
     """
     clock = _StageClock(timings)
-    k = step_kernels(nodes.u.shape[1], tpb)
+    d = nodes.u.shape[1]
+    k = step_kernels(d, tpb, ordered)
     n_steps = int(control.n_steps)
     if n_steps <= 0:
         return 0, 0
@@ -141,6 +176,29 @@ def run_steps_cuda(control: StepControl, nodes: NodeState, loads: NodeLoads,
     platen_of = np.repeat(np.arange(max(len(offsets) - 1, 0)), np.diff(offsets))
     work = DeviceWork(cuda.to_device(np.zeros(2, np.int64)), cuda.device_array(n_steps),
                       cuda.to_device(platen_of.astype(np.int64)))
+    if ordered:
+        if order is None:
+            order = GatherOrder.of(n_nodes, elements.cells.copy_to_host(),
+                                   contacts.nodes.copy_to_host())
+        platen_nodes = platens.nodes.copy_to_host() if n_platen_nodes else np.zeros(0, int)
+        platen_ptr, platen_slot = (cuda.to_device(a) for a in node_slots(n_nodes, platen_nodes))
+        axis = platens.axis.copy_to_host() if n_platen_nodes else np.zeros(0, int)
+        platen_axis = cuda.to_device(axis[platen_of].astype(np.int64))
+        n_pores = pores.held_void.shape[0]
+        pore_ptr, pore_slot = (cuda.to_device(a) for a in node_slots(
+            n_pores, pores.pore.copy_to_host() if n_pore_contacts else np.zeros(0, int)))
+        scratch = (cuda.device_array((n_elements, d + 1, d)),
+                   cuda.device_array((max(n_contacts, 1), d)),
+                   cuda.device_array(max(n_pore_contacts, 1)))
+    else:
+        # Unused by the atomic kernels, but launched with arrays of the right types.
+        platen_ptr = platen_slot = platen_axis = cuda.to_device(np.zeros(1, np.int64))
+        pore_ptr = pore_slot = platen_ptr
+        empty = GatherOrder(*(platen_ptr,) * 4)
+        order = order or empty
+        scratch = (cuda.device_array((1, d + 1, d)), cuda.device_array((1, d)),
+                   cuda.device_array(1))
+    cell_force, on_second, pore_term = scratch
     k["fill"][_blocks(n_steps, tpb), tpb](work.vmax, 0.0)
     k["fill_rows"][_blocks(n_nodes, tpb), tpb](nodes.force, 0.0)
     dt = float(control.dt)
@@ -155,11 +213,15 @@ def run_steps_cuda(control: StepControl, nodes: NodeState, loads: NodeLoads,
         0, dt, nodes.u, elements.cells, elements.grad, elements.measure, elements.lam,
         elements.mu, es.stress, es.eigenstrain, es.eigenstrain_rate, es.initial_strain,
         nodes.force, energies, work.control, work.vmax, limit, platens.position,
-        platens.velocity, platens.reaction, pores.void), varying=(0,))
+        platens.velocity, platens.reaction, pores.void, cell_force), varying=(0,))
     if n_pore_contacts:
         pore_void_sum = PreparedLaunch(k["pore_void_sum"], gq, tpb, (
             nodes.u, contacts.nodes, contacts.frame, contacts.area, pores.contact, pores.pore,
-            pores.lower, float(pores.initial_aperture), pores.void, work.control))
+            pores.lower, float(pores.initial_aperture), pores.void, pore_term, work.control))
+        if ordered:
+            pore_void_gather = PreparedLaunch(k["pore_void_gather"], _blocks(n_pores, tpb), tpb,
+                                              (pore_ptr, pore_slot, pore_term, pores.void,
+                                               work.control))
         pore_pressure = PreparedLaunch(k["pore_pressure"], gq, tpb, (
             pores.contact, pores.pore, pores.held_void, pores.storage, pores.ceiling,
             pores.void, cs.pressure, work.control))
@@ -170,30 +232,41 @@ def run_steps_cuda(control: StepControl, nodes: NodeState, loads: NodeLoads,
             contacts.tensile_strength, contacts.opening_to_fail, contacts.slip_to_fail,
             cs.bonded, cs.status, cs.sigma_n, cs.tau, cs.damage, cs.plastic_opening,
             cs.pressure, cs.released, cs.opening_offset, energies, work.control,
-            cracks.contact, cracks.step), varying=(0,))
+            cracks.contact, cracks.step, on_second), varying=(0,))
     if n_platen_nodes:
         platen_forces = PreparedLaunch(k["platen_forces"], gp, tpb, (
             platens.x, nodes.u, nodes.force, work.platen_of, platens.nodes, platens.axis,
             platens.side, platens.position, platens.stiffness, platens.reaction,
             platens.node_force, work.control))
+        if ordered:
+            n_platens = platens.position.shape[0]
+            platen_reactions = PreparedLaunch(k["platen_reactions"], _blocks(n_platens, tpb),
+                                              tpb, (platens.offsets, platens.node_force,
+                                                    platens.reaction, work.control))
         platen_work = PreparedLaunch(k["platen_work"], gp, tpb, (
             dt, nodes.v, work.platen_of, platens.nodes, platens.axis, platens.node_force,
             energies, work.control))
     update_nodes = PreparedLaunch(k["update_nodes"], gn, tpb, (
         0, dt, alpha, 0, nodes.u, nodes.v, nodes.force, loads.mass, loads.external,
-        loads.fixed, loads.prescribed_velocity, energies, work.vmax, work.control),
+        loads.fixed, loads.prescribed_velocity, energies, work.vmax, work.control,
+        order.cell_ptr, order.cell_slot, order.contact_ptr, order.contact_slot, platen_ptr,
+        platen_slot, cell_force, on_second, platen_axis, platens.node_force),
         varying=(0, 3))
     for step in range(n_steps):
         element_forces(step)
         clock("elements")
         if n_pore_contacts:
             pore_void_sum()
+            if ordered:
+                pore_void_gather()
             pore_pressure()
         if n_contacts:
             contact_forces(step)
         clock("contacts")
         if n_platen_nodes:
             platen_forces()
+            if ordered:
+                platen_reactions()
             clock("platens")
         update_nodes(step, int(step == n_steps - 1))
         clock("nodes")
