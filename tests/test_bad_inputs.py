@@ -113,6 +113,8 @@ CASES += [
     ("name-table", _set("name", "{a = 1}"), "name", REJECT),
     ("time-step-above-duration", _set("time_step_ms", "0.1"), "time_step_ms", REJECT),
     ("volume-huge", _after("time_step_ms = 0.01", "volume_ml = 1e300"), "volume_ml", REJECT),
+    ("max-step-below-step", _after("time_step_ms = 0.01", "max_time_step_ms = 0.005"),
+     "max_time_step_ms", REJECT),
     ("no-stages", BASE.split("[[stages]]")[0], "stages", REJECT),
     ("inject-first", BASE.replace('kind = "equilibrate"\nunbalanced_ratio = 1e-5\n'
                                   "max_steps = 400\n\n[[stages]]\n", "", 1)

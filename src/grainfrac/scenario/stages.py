@@ -158,6 +158,11 @@ class InjectStage(StrictModel):
                                       description="injection time [ms]")
     volume_ml: float | None = Field(None, gt=0, description="injected volume [ml]")
     time_step_ms: float = Field(0.01, gt=0, description="fluid (coupling) time step [ms]")
+    max_time_step_ms: float | None = Field(
+        None, gt=0, le=MAX_STAGE_MS,
+        description="longest fluid step [ms] while the injection is quiet (no new crack, no "
+        "halved step, the well pressure moving < 2 % a step): the step doubles up to it and "
+        "drops back to time_step_ms at once; default: every step is time_step_ms")
     stop_at_boundary: bool = Field(
         True, description="stop when a crack made by the injection reaches the boundary")
     stop_after_breakdown_ms: float | None = Field(
@@ -181,6 +186,10 @@ class InjectStage(StrictModel):
                 f"time_step_ms: must be < the stage duration ({self.planned_duration_s * 1e3:g} "
                 f"ms) (got {self.time_step_ms:g})"
             )
+        if self.max_time_step_ms is not None and self.max_time_step_ms < self.time_step_ms:
+            raise ValueError(
+                f"max_time_step_ms: must be >= time_step_ms ({self.time_step_ms:g}) "
+                f"(got {self.max_time_step_ms:g})")
         return self
 
     @property
@@ -192,6 +201,12 @@ class InjectStage(StrictModel):
     def time_step(self) -> float:
         """Fluid time step (s)."""
         return self.time_step_ms * 1e-3
+
+    @property
+    def max_time_step(self) -> float:
+        """Longest fluid step (s) of a quiet injection (``time_step`` if it does not grow)."""
+        return (self.max_time_step_ms if self.max_time_step_ms is not None
+                else self.time_step_ms) * 1e-3
 
     @property
     def planned_duration_s(self) -> float:

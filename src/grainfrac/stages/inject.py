@@ -16,6 +16,12 @@ BOUNDARY_REACH_ZONES = 1.5
 # Breakdown: the well pressure falls this fraction below its peak (the drop that
 # grainfrac.analysis.breakdown calls sustained; tests/test_well_wall.py keeps them equal).
 BREAKDOWN_DROP_FRACTION = 0.05
+# A fluid step may grow (InjectStage.max_time_step_ms) only while the well pressure
+# moves less than this fraction of itself a step (at least the floor, Pa): at the
+# default 0.01 ms step the paper's slab moves ~0.04 MPa a step at 90 ml/min, 0.4-1 %
+# of its pressure before breakdown, so a grown step reads the peak as finely.
+GROWTH_WELL_FRACTION = 0.005
+GROWTH_WELL_FLOOR = 0.02e6
 
 
 def couple_fluid(world: World, fluid: FluidSpec) -> HydroMechanicalSolver:
@@ -54,6 +60,19 @@ def fracture_at_boundary(world: World) -> bool:
     return any(mask.any() for side, mask in near.items() if side != "borehole")
 
 
+def next_time_step(step: float, spec: InjectStage, quiet: bool) -> float:
+    """The fluid step after one of ``step`` seconds: twice as long (at most
+    ``spec.max_time_step``) after a quiet step, ``spec.time_step`` after any other.
+
+    Quiet: no new crack, no halved step, the well pressure moved less than
+    ``GROWTH_WELL_FRACTION`` of itself. The mechanics takes the same explicit steps
+    either way; a longer fluid step holds the pressures for longer between solves,
+    which the smooth pressurisation before breakdown allows (measured in
+    ``benchmarks/fluid_step_growth.py``).
+    """
+    return min(2.0 * step, spec.max_time_step) if quiet else spec.time_step
+
+
 @dataclass
 class InjectState:
     start_time: float = 0.0
@@ -63,6 +82,7 @@ class InjectState:
     peak_well_pressure: float = 0.0  # Pa
     breakdown_after: float = -1.0  # s from the stage start; -1 before breakdown
     stop_reason: str | None = None  # once the stage has ended
+    time_step: float = 0.0  # s, the next fluid step (0: the stage's time_step)
 
 
 @dataclass
@@ -89,7 +109,18 @@ class Inject:
         # whole mechanical steps): the stage ends within one mechanical step of its
         # duration or volume, not up to a fluid step beyond it.
         left = planned - (world.solver.time - st.start_time)
-        world.coupled.advance(min(spec.time_step, left), spec.rate)
+        step = st.time_step or spec.time_step
+        coupled = world.coupled
+        before = (len(world.solver.cracks.contact), coupled.rejected_steps,
+                  coupled.well_pressure)
+        # A grown step in which a crack starts is done again in halves down to the
+        # stage's own step (the halves count as rejected: the step drops back).
+        coupled.advance(min(step, left), spec.rate, crack_free_above=spec.time_step)
+        st.time_step = next_time_step(step, spec, quiet=(
+            len(world.solver.cracks.contact) == before[0]
+            and coupled.rejected_steps == before[1]
+            and abs(coupled.well_pressure - before[2]) <= max(
+                GROWTH_WELL_FRACTION * abs(coupled.well_pressure), GROWTH_WELL_FLOOR)))
         st.chunks += 1
         elapsed = world.solver.time - st.start_time
         if elapsed >= planned - 1e-12:
