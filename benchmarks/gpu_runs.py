@@ -192,6 +192,8 @@ def cube(out: Path, name: str, limit_s: float | None, cpu_steps: int,
     total = time.perf_counter() - start + built_s
     rows = history(out / f"cube-{name}")
     steps = int(rows[-1]["step"]) if rows else 0
+    # One history row per fluid step of an inject stage (max_time_step_ms grows them).
+    fluid_steps = sum(r["stage"] == "inject" for r in rows)
     split = dict(clock.seconds)
     split["set-up"] = split.get("set-up", 0.0) + built_s
     # The timed calls do not nest; the rest is the host's work between them.
@@ -199,7 +201,8 @@ def cube(out: Path, name: str, limit_s: float | None, cpu_steps: int,
     split["host: coupling, histories, snapshots, checkpoints, figures"] = rest
     report = {
         "backend": name, "tets": int(assembly.mesh.n_elements),
-        "contacts": int(assembly.mesh.n_contacts), "steps": steps, "total_s": total,
+        "contacts": int(assembly.mesh.n_contacts), "steps": steps, "fluid_steps": fluid_steps,
+        "total_s": total,
         "split_s": split, "stopped": stopped, "last_stage": rows[-1]["stage"] if rows else None,
         "last_time_ms": 1e3 * float(rows[-1]["time_s"]) if rows else None,
         "breakdown_MPa": summary["breakdown_pressure_MPa"] if summary else None,
@@ -216,6 +219,9 @@ def cube(out: Path, name: str, limit_s: float | None, cpu_steps: int,
         say(f"    mechanics per step {1e3 * mechanics / steps:.3f} ms, "
             f"{report['tets'] * steps / max(mechanics, 1e-9):.3e} tet-steps/s")
     solve = split.get("pressure solve", 0.0)
+    if fluid_steps:
+        say(f"    {fluid_steps} fluid steps, {1e3 * solve / fluid_steps:.1f} ms of pressure "
+            f"solve each")
     say(f"    pressure solve / time after set-up: "
         f"{solve / max(total - split['set-up'], 1e-9):.3f}")
     if cpu and steps:
