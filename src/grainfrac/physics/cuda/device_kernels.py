@@ -197,7 +197,7 @@ def step_kernels(d: int, tpb: int, ordered: bool = True):
     def pore_void_sum(u, contact_nodes, frame, area, pore_contact, pore, lower,
                       initial_aperture, pore_void, pore_term, control):
         """V_k = sum A max(a0 + u_n, lower) over pore k's sub-contacts: each term into
-        ``pore_term`` when ordered (:func:`pore_void_gather` adds them), else atomics."""
+        ``pore_term`` when ordered (``segment_sums`` adds them), else atomics."""
         if control[HALTED] != 0:
             return
         j = cuda.grid(1)
@@ -212,16 +212,18 @@ def step_kernels(d: int, tpb: int, ordered: bool = True):
                 cuda.atomic.add(pore_void, pore[j], area[c] * aperture)
 
     @cuda.jit
-    def pore_void_gather(pore_ptr, pore_slot, pore_term, pore_void, control):
-        """Pore k's void: its sub-contacts' terms added in the listed order (as the CPU)."""
+    def segment_sums(ptr, slot, values, out, control):
+        """``out[k] = sum of values[slot[s]]`` for ``s`` from ``ptr[k]`` to ``ptr[k + 1]``,
+        added in that order as the CPU does (one thread a sum): a pore's void from its
+        sub-contacts' terms, a platen's reaction from its nodes' forces."""
         if control[HALTED] != 0:
             return
         k = cuda.grid(1)
-        if k < pore_void.shape[0]:
+        if k < out.shape[0]:
             total = 0.0
-            for s in range(pore_ptr[k], pore_ptr[k + 1]):
-                total += pore_term[pore_slot[s]]
-            pore_void[k] = total
+            for s in range(ptr[k], ptr[k + 1]):
+                total += values[slot[s]]
+            out[k] = total
 
     @cuda.jit
     def pore_pressure(pore_contact, pore, held_void, storage, ceiling, pore_void,
@@ -320,7 +322,7 @@ def step_kernels(d: int, tpb: int, ordered: bool = True):
                       reaction, node_force, control):
         """Penalty force of the platens on the nodes past their planes
         (:func:`grainfrac.physics.kernels.platen_forces`), one thread a platen node.
-        Ordered, the nodes gather ``node_force`` and :func:`platen_reactions` sums it."""
+        Ordered, the nodes gather ``node_force`` and ``segment_sums`` adds the reactions."""
         if control[HALTED] != 0:
             return
         i = cuda.grid(1)
@@ -334,18 +336,6 @@ def step_kernels(d: int, tpb: int, ordered: bool = True):
             if not ordered:
                 cuda.atomic.add(force, (n, ax), f)
                 cuda.atomic.add(reaction, p, f)
-
-    @cuda.jit
-    def platen_reactions(offsets, node_force, reaction, control):
-        """Each platen's reaction: its nodes' forces added in order (one thread a platen)."""
-        if control[HALTED] != 0:
-            return
-        p = cuda.grid(1)
-        if p < reaction.shape[0]:
-            total = 0.0
-            for i in range(offsets[p], offsets[p + 1]):
-                total += node_force[i]
-            reaction[p] = total
 
     @cuda.jit
     def update_nodes(step, dt, alpha, keep_force, u, v, force, mass, external, fixed,
@@ -435,9 +425,9 @@ def step_kernels(d: int, tpb: int, ordered: bool = True):
 
     return {
         "fill": fill, "fill_rows": fill_rows, "element_forces": element_forces,
-        "pore_void_sum": pore_void_sum, "pore_void_gather": pore_void_gather,
+        "pore_void_sum": pore_void_sum, "segment_sums": segment_sums,
         "pore_pressure": pore_pressure, "contact_forces": contact_forces,
-        "platen_forces": platen_forces, "platen_reactions": platen_reactions,
+        "platen_forces": platen_forces,
         "update_nodes": update_nodes,
         "platen_work": platen_work,
     }

@@ -219,7 +219,7 @@ def run_steps_cuda(control: StepControl, nodes: NodeState, loads: NodeLoads,
             nodes.u, contacts.nodes, contacts.frame, contacts.area, pores.contact, pores.pore,
             pores.lower, float(pores.initial_aperture), pores.void, pore_term, work.control))
         if ordered:
-            pore_void_gather = PreparedLaunch(k["pore_void_gather"], _blocks(n_pores, tpb), tpb,
+            pore_void_gather = PreparedLaunch(k["segment_sums"], _blocks(n_pores, tpb), tpb,
                                               (pore_ptr, pore_slot, pore_term, pores.void,
                                                work.control))
         pore_pressure = PreparedLaunch(k["pore_pressure"], gq, tpb, (
@@ -240,9 +240,10 @@ def run_steps_cuda(control: StepControl, nodes: NodeState, loads: NodeLoads,
             platens.node_force, work.control))
         if ordered:
             n_platens = platens.position.shape[0]
-            platen_reactions = PreparedLaunch(k["platen_reactions"], _blocks(n_platens, tpb),
-                                              tpb, (platens.offsets, platens.node_force,
-                                                    platens.reaction, work.control))
+            in_order = cuda.to_device(np.arange(n_platen_nodes, dtype=np.int64))
+            platen_reactions = PreparedLaunch(k["segment_sums"], _blocks(n_platens, tpb), tpb,
+                                              (platens.offsets, in_order, platens.node_force,
+                                               platens.reaction, work.control))
         platen_work = PreparedLaunch(k["platen_work"], gp, tpb, (
             dt, nodes.v, work.platen_of, platens.nodes, platens.axis, platens.node_force,
             energies, work.control))
