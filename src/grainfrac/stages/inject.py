@@ -109,18 +109,10 @@ class Inject:
         # whole mechanical steps): the stage ends within one mechanical step of its
         # duration or volume, not up to a fluid step beyond it.
         left = planned - (world.solver.time - st.start_time)
-        step = st.time_step or spec.time_step
-        coupled = world.coupled
-        before = (len(world.solver.cracks.contact), coupled.rejected_steps,
-                  coupled.well_pressure)
-        # A grown step in which a crack starts is done again in halves down to the
-        # stage's own step (the halves count as rejected: the step drops back).
-        coupled.advance(min(step, left), spec.rate, crack_free_above=spec.time_step)
-        st.time_step = next_time_step(step, spec, quiet=(
-            len(world.solver.cracks.contact) == before[0]
-            and coupled.rejected_steps == before[1]
-            and abs(coupled.well_pressure - before[2]) <= max(
-                GROWTH_WELL_FRACTION * abs(coupled.well_pressure), GROWTH_WELL_FLOOR)))
+        if spec.max_time_step_ms is None:
+            world.coupled.advance(min(spec.time_step, left), spec.rate)
+        else:
+            self._advance_growing(world, min(st.time_step or spec.time_step, left))
         st.chunks += 1
         elapsed = world.solver.time - st.start_time
         if elapsed >= planned - 1e-12:
@@ -137,6 +129,20 @@ class Inject:
                 st.stop_reason = f"{spec.stop_after_breakdown_ms:g} ms after breakdown"
         st.done = st.stop_reason is not None
         st.fraction = min(1.0, elapsed / planned)
+
+    def _advance_growing(self, world: World, step: float) -> None:
+        """One fluid step of ``step`` seconds; set the next one (:func:`next_time_step`).
+        A grown step in which a crack starts is done again in halves down to the
+        stage's own step (the halves count as rejected: the step drops back)."""
+        spec, coupled, cracks = self.spec, world.coupled, world.solver.cracks.contact
+        before = (len(cracks), coupled.rejected_steps, coupled.well_pressure)
+        coupled.advance(step, spec.rate, crack_free_above=spec.time_step)
+        moved = abs(coupled.well_pressure - before[2])
+        self.state.time_step = next_time_step(step, spec, quiet=(
+            len(world.solver.cracks.contact) == before[0]
+            and coupled.rejected_steps == before[1]
+            and moved <= max(GROWTH_WELL_FRACTION * abs(coupled.well_pressure),
+                             GROWTH_WELL_FLOOR)))
 
     def finished(self) -> bool:
         return self.state.done
