@@ -123,6 +123,47 @@ class GatherOrder(NamedTuple):
                                                  *node_slots(n_nodes, contact_nodes))))
 
 
+class _SumBuffers(NamedTuple):
+    """What one call's ordered sums read: the model's :class:`GatherOrder`, the CSR lists
+    of the platen nodes (by node) and of the pores' sub-contacts (by pore), each platen
+    node's axis, and the slots the elements, contacts and pores write. The atomic
+    kernels take one-element stand-ins (never read) so that the launches keep their
+    argument types."""
+
+    order: GatherOrder
+    platen_ptr: object
+    platen_slot: object
+    platen_axis: object
+    pore_ptr: object
+    pore_slot: object
+    cell_force: object
+    on_second: object
+    pore_term: object
+
+
+def _sum_buffers(ordered: bool, order: GatherOrder | None, d: int, n_nodes: int,
+                 elements: Elements, contacts: Contacts, platens: PlatenSet,
+                 pores: PoreSpringSet, platen_of: np.ndarray) -> _SumBuffers:
+    if not ordered:
+        one = cuda.to_device(np.zeros(1, np.int64))
+        return _SumBuffers(order or GatherOrder(one, one, one, one), one, one, one, one, one,
+                           cuda.device_array((1, d + 1, d)), cuda.device_array((1, d)),
+                           cuda.device_array(1))
+    if order is None:
+        order = GatherOrder.of(n_nodes, elements.cells.copy_to_host(),
+                               contacts.nodes.copy_to_host())
+    has_platens, has_pores = platens.nodes.shape[0] > 0, pores.contact.shape[0] > 0
+    platen_nodes = platens.nodes.copy_to_host() if has_platens else np.zeros(0, np.int64)
+    axis = platens.axis.copy_to_host() if has_platens else np.zeros(0, np.int64)
+    pore = pores.pore.copy_to_host() if has_pores else np.zeros(0, np.int64)
+    device = [cuda.to_device(a) for a in (*node_slots(n_nodes, platen_nodes),
+                                          axis[platen_of].astype(np.int64),
+                                          *node_slots(pores.held_void.shape[0], pore))]
+    return _SumBuffers(order, *device, cuda.device_array((elements.cells.shape[0], d + 1, d)),
+                       cuda.device_array((max(contacts.nodes.shape[0], 1), d)),
+                       cuda.device_array(max(pores.contact.shape[0], 1)))
+
+
 def fetch_cracks(cracks: CrackLog, n: int) -> tuple[np.ndarray, np.ndarray]:
     """The first ``n`` entries of a device crack log, in the CPU backend's order
     (by step, then contact): the device appends within a step in any order."""
@@ -176,29 +217,10 @@ def run_steps_cuda(control: StepControl, nodes: NodeState, loads: NodeLoads,
     platen_of = np.repeat(np.arange(max(len(offsets) - 1, 0)), np.diff(offsets))
     work = DeviceWork(cuda.to_device(np.zeros(2, np.int64)), cuda.device_array(n_steps),
                       cuda.to_device(platen_of.astype(np.int64)))
-    if ordered:
-        if order is None:
-            order = GatherOrder.of(n_nodes, elements.cells.copy_to_host(),
-                                   contacts.nodes.copy_to_host())
-        platen_nodes = platens.nodes.copy_to_host() if n_platen_nodes else np.zeros(0, int)
-        platen_ptr, platen_slot = (cuda.to_device(a) for a in node_slots(n_nodes, platen_nodes))
-        axis = platens.axis.copy_to_host() if n_platen_nodes else np.zeros(0, int)
-        platen_axis = cuda.to_device(axis[platen_of].astype(np.int64))
-        n_pores = pores.held_void.shape[0]
-        pore_ptr, pore_slot = (cuda.to_device(a) for a in node_slots(
-            n_pores, pores.pore.copy_to_host() if n_pore_contacts else np.zeros(0, int)))
-        scratch = (cuda.device_array((n_elements, d + 1, d)),
-                   cuda.device_array((max(n_contacts, 1), d)),
-                   cuda.device_array(max(n_pore_contacts, 1)))
-    else:
-        # Unused by the atomic kernels, but launched with arrays of the right types.
-        platen_ptr = platen_slot = platen_axis = cuda.to_device(np.zeros(1, np.int64))
-        pore_ptr = pore_slot = platen_ptr
-        empty = GatherOrder(*(platen_ptr,) * 4)
-        order = order or empty
-        scratch = (cuda.device_array((1, d + 1, d)), cuda.device_array((1, d)),
-                   cuda.device_array(1))
-    cell_force, on_second, pore_term = scratch
+    sums = _sum_buffers(ordered, order, d, n_nodes, elements, contacts, platens, pores,
+                        platen_of)
+    order, cell_force, on_second, pore_term = (sums.order, sums.cell_force, sums.on_second,
+                                               sums.pore_term)
     k["fill"][_blocks(n_steps, tpb), tpb](work.vmax, 0.0)
     k["fill_rows"][_blocks(n_nodes, tpb), tpb](nodes.force, 0.0)
     dt = float(control.dt)
@@ -219,9 +241,9 @@ def run_steps_cuda(control: StepControl, nodes: NodeState, loads: NodeLoads,
             nodes.u, contacts.nodes, contacts.frame, contacts.area, pores.contact, pores.pore,
             pores.lower, float(pores.initial_aperture), pores.void, pore_term, work.control))
         if ordered:
-            pore_void_gather = PreparedLaunch(k["segment_sums"], _blocks(n_pores, tpb), tpb,
-                                              (pore_ptr, pore_slot, pore_term, pores.void,
-                                               work.control))
+            pore_void_gather = PreparedLaunch(
+                k["segment_sums"], _blocks(pores.held_void.shape[0], tpb), tpb,
+                (sums.pore_ptr, sums.pore_slot, pore_term, pores.void, work.control))
         pore_pressure = PreparedLaunch(k["pore_pressure"], gq, tpb, (
             pores.contact, pores.pore, pores.held_void, pores.storage, pores.ceiling,
             pores.void, cs.pressure, work.control))
@@ -250,8 +272,8 @@ def run_steps_cuda(control: StepControl, nodes: NodeState, loads: NodeLoads,
     update_nodes = PreparedLaunch(k["update_nodes"], gn, tpb, (
         0, dt, alpha, 0, nodes.u, nodes.v, nodes.force, loads.mass, loads.external,
         loads.fixed, loads.prescribed_velocity, energies, work.vmax, work.control,
-        order.cell_ptr, order.cell_slot, order.contact_ptr, order.contact_slot, platen_ptr,
-        platen_slot, cell_force, on_second, platen_axis, platens.node_force),
+        order.cell_ptr, order.cell_slot, order.contact_ptr, order.contact_slot, sums.platen_ptr,
+        sums.platen_slot, cell_force, on_second, sums.platen_axis, platens.node_force),
         varying=(0, 3))
     for step in range(n_steps):
         element_forces(step)
