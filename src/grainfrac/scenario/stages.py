@@ -161,7 +161,7 @@ class InjectStage(StrictModel):
     max_time_step_ms: float | None = Field(
         None, gt=0, le=MAX_STAGE_MS,
         description="longest fluid step [ms] while the injection is quiet (no new crack, no "
-        "halved step, the well pressure moving < 2 % a step): the step doubles up to it and "
+        "halved step, the well pressure moving < 0.5 % a step): the step doubles up to it and "
         "drops back to time_step_ms at once; default: every step is time_step_ms")
     stop_at_boundary: bool = Field(
         True, description="stop when a crack made by the injection reaches the boundary")
