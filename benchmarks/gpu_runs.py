@@ -90,41 +90,46 @@ def cracks(out: Path) -> list[tuple[int, str]]:
     return [(int(r["contact"]), r["mode"]) for r in rows]
 
 
-def same_answers(out: Path, sums: str) -> dict:
+def _run_small_hybrid(out: Path, name: str, label: str) -> dict:
+    """The small hybrid scenario on backend ``name`` into ``out / label``."""
     scenario = validate(Scenario, tomllib.loads(SMALL_HYBRID.read_text()))
-    result = {}
-    os.environ[SUMS_VARIABLE] = sums
-    say(f"same-answers, {sums} sums on the GPU")
-    for name in ("cpu", "cuda"):
-        start = time.perf_counter()
-        with backend(name):
-            summary = run_scenario(scenario, scenario.recipe(), out / f"{name}-{sums}",
-                                   overwrite=True)
-        result[name] = {"wall_s": time.perf_counter() - start, "summary": summary,
-                        "cracks": cracks(out / f"{name}-{sums}"),
-                        "history": history(out / f"{name}-{sums}")}
-        say(f"same-answers: {name} run {result[name]['wall_s']:.1f} s, "
-            f"{summary['n_cracks']} cracks, breakdown {summary['breakdown_pressure_MPa']} MPa")
-    cpu, gpu = result["cpu"], result["cuda"]
-    p_cpu = np.array([float(r["well_pressure_MPa"]) for r in cpu["history"]])
-    p_gpu = np.array([float(r["well_pressure_MPa"]) for r in gpu["history"]])
-    n = min(len(p_cpu), len(p_gpu))
-    scale = max(float(np.max(np.abs(p_cpu))), 1e-300)
-    report = {
-        "steps": int(cpu["history"][-1]["step"]),
-        "cracks_cpu": len(cpu["cracks"]), "cracks_cuda": len(gpu["cracks"]),
-        "same_crack_set": sorted(cpu["cracks"]) == sorted(gpu["cracks"]),
-        "same_crack_order": cpu["cracks"] == gpu["cracks"],
-        "cracks_only_cpu": len(set(cpu["cracks"]) - set(gpu["cracks"])),
-        "cracks_only_cuda": len(set(gpu["cracks"]) - set(cpu["cracks"])),
-        "history_rows": [len(p_cpu), len(p_gpu)],
-        "well_pressure_max_rel": float(np.max(np.abs(p_cpu[:n] - p_gpu[:n])) / scale),
-        "breakdown_MPa": [cpu["summary"]["breakdown_pressure_MPa"],
-                          gpu["summary"]["breakdown_pressure_MPa"]],
-        "wall_s": [cpu["wall_s"], gpu["wall_s"]],
-    }
-    say("same-answers: " + json.dumps(report))
-    return report
+    start = time.perf_counter()
+    with backend(name):
+        summary = run_scenario(scenario, scenario.recipe(), out / label, overwrite=True)
+    run = {"wall_s": time.perf_counter() - start, "summary": summary,
+           "cracks": cracks(out / label), "history": history(out / label)}
+    say(f"same-answers: {label} run {run['wall_s']:.1f} s, {summary['n_cracks']} cracks, "
+        f"breakdown {summary['breakdown_pressure_MPa']} MPa")
+    return run
+
+
+def same_answers(out: Path, sums: list[str]) -> dict:
+    """The CPU run once, then the CUDA run with each way of summing, compared with it."""
+    cpu = _run_small_hybrid(out, "cpu", "cpu")
+    reports = {}
+    for way in sums:
+        os.environ[SUMS_VARIABLE] = way
+        gpu = _run_small_hybrid(out, "cuda", f"cuda-{way}")
+        p_cpu = np.array([float(r["well_pressure_MPa"]) for r in cpu["history"]])
+        p_gpu = np.array([float(r["well_pressure_MPa"]) for r in gpu["history"]])
+        n = min(len(p_cpu), len(p_gpu))
+        scale = max(float(np.max(np.abs(p_cpu))), 1e-300)
+        reports[way] = {
+            "steps": int(cpu["history"][-1]["step"]),
+            "cracks_cpu": len(cpu["cracks"]), "cracks_cuda": len(gpu["cracks"]),
+            "same_crack_set": sorted(cpu["cracks"]) == sorted(gpu["cracks"]),
+            "same_crack_order": cpu["cracks"] == gpu["cracks"],
+            "cracks_only_cpu": len(set(cpu["cracks"]) - set(gpu["cracks"])),
+            "cracks_only_cuda": len(set(gpu["cracks"]) - set(cpu["cracks"])),
+            "history_rows": [len(p_cpu), len(p_gpu)],
+            "well_pressure_max_rel": float(np.max(np.abs(p_cpu[:n] - p_gpu[:n])) / scale),
+            "breakdown_MPa": [cpu["summary"]["breakdown_pressure_MPa"],
+                              gpu["summary"]["breakdown_pressure_MPa"]],
+            "wall_s": [cpu["wall_s"], gpu["wall_s"]],
+        }
+        say(f"same-answers, {way} sums: " + json.dumps(reports[way]))
+    os.environ.pop(SUMS_VARIABLE, None)  # later runs take the default
+    return reports
 
 
 def cpu_step_time(assembly, scenario: Scenario, steps: int) -> tuple[float, int]:
@@ -263,8 +268,7 @@ def main() -> None:
     args.out.mkdir(parents=True, exist_ok=True)
     results = {}
     if "same-answers" in args.what:
-        results["same_answers"] = {sums: same_answers(args.out, sums) for sums in args.sums}
-        os.environ.pop(SUMS_VARIABLE, None)  # the cube runs with the default
+        results["same_answers"] = same_answers(args.out, args.sums)
     if "cube" in args.what:
         results["cube"] = cube(args.out, args.backend, args.limit_s, args.cpu_steps,
                                args.profile)

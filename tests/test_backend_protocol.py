@@ -58,6 +58,10 @@ class _EmulatedCuda:
         return np.array(array, copy=True).view(_DeviceArray)
 
     @staticmethod
+    def device_array(shape):
+        return np.empty(shape).view(_DeviceArray)
+
+    @staticmethod
     def synchronize() -> None:
         pass
 

@@ -118,14 +118,24 @@ def cell_blocks(n_nodes: int, cells: np.ndarray, n_blocks: int = CELL_BLOCKS) ->
     return np.unique(np.concatenate([[0], ends[pick], [m]])).astype(np.int64)
 
 
+def node_slots(n_nodes: int, node_of_slot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """CSR lists ``(ptr, slot)`` over every node: node ``n``'s slots are
+    ``slot[ptr[n]:ptr[n + 1]]``, ascending (a stable sort). ``node_of_slot`` is the node
+    of each slot, e.g. ``cells.ravel()`` (slot ``(d + 1) e + k``) or
+    ``contact_nodes.ravel()`` (slot ``2 c + side``): ascending slots are the serial
+    kernels' order of adding into a node."""
+    node_of_slot = np.asarray(node_of_slot, dtype=np.int64).ravel()
+    ptr = np.zeros(n_nodes + 1, dtype=np.int64)
+    np.cumsum(np.bincount(node_of_slot, minlength=n_nodes), out=ptr[1:])
+    return ptr, np.argsort(node_of_slot, kind="stable").astype(np.int64)
+
+
 def build_adjacency(n_nodes: int, cells: np.ndarray, contact_nodes: np.ndarray) -> Adjacency:
-    """The :class:`Adjacency` of a mesh (a stable sort keeps contact order)."""
-    owner = np.asarray(contact_nodes, dtype=np.int64).ravel()
-    contact_slot = np.argsort(owner, kind="stable").astype(np.int64)
-    counts = np.bincount(owner, minlength=n_nodes)
-    contact_node = np.flatnonzero(counts).astype(np.int64)
-    contact_ptr = np.zeros(len(contact_node) + 1, dtype=np.int64)
-    np.cumsum(counts[contact_node], out=contact_ptr[1:])
+    """The :class:`Adjacency` of a mesh: :func:`node_slots` of the contacts, kept for the
+    nodes that have any."""
+    ptr, contact_slot = node_slots(n_nodes, contact_nodes)
+    contact_node = np.flatnonzero(np.diff(ptr)).astype(np.int64)
+    contact_ptr = np.append(ptr[contact_node], ptr[-1])
     return Adjacency(cell_blocks(n_nodes, cells), contact_node, contact_ptr, contact_slot)
 
 

@@ -347,7 +347,7 @@ def step_kernels(d: int, tpb: int, ordered: bool = True):
 
         Ordered, each node first adds its cells', contacts' and platen nodes' forces
         in the CPU's order (the ``*_ptr`` / ``*_slot`` lists of
-        :func:`grainfrac.physics.cuda.stepper.node_slots`; ``platen_axis`` is the axis
+        :func:`grainfrac.physics.records.node_slots`; ``platen_axis`` is the axis
         of each platen node) and keeps the sum in
         ``force``. Atomic, it reads ``force`` and zeroes it for the next step unless
         ``keep_force`` (the call's last step leaves it, as the CPU does)."""
@@ -427,7 +427,6 @@ def step_kernels(d: int, tpb: int, ordered: bool = True):
         "fill": fill, "fill_rows": fill_rows, "element_forces": element_forces,
         "pore_void_sum": pore_void_sum, "segment_sums": segment_sums,
         "pore_pressure": pore_pressure, "contact_forces": contact_forces,
-        "platen_forces": platen_forces,
-        "update_nodes": update_nodes,
+        "platen_forces": platen_forces, "update_nodes": update_nodes,
         "platen_work": platen_work,
     }

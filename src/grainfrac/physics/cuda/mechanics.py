@@ -81,8 +81,9 @@ class CudaMechanics:
         m = solver.model
         self._elements = stepper.to_device(m.elements)
         self._contacts = stepper.to_device(m.contacts)
+        # Made once per model; without it each cycle would rebuild it from device copies.
         self._order = (stepper.GatherOrder.of(m.n_nodes, m.elements.cells, m.contacts.nodes)
-                       if ordered else None)
+                       if self.ordered else None)
         c = m.n_contacts
         self._cracks = stepper.to_device(CrackLog(np.zeros(max(c, 1), np.int64),
                                                   np.zeros(max(c, 1), np.int64)))

@@ -28,6 +28,7 @@ from grainfrac.physics.records import (
     PlatenSet,
     PoreSpringSet,
     StepControl,
+    node_slots,
 )
 
 # 256 threads a block on a GPU (a plain tetrahedron-step probe on an H200 ran best there);
@@ -96,62 +97,53 @@ def _blocks(n: int, tpb: int) -> int:
     return max(1, (n + tpb - 1) // tpb)
 
 
-def node_slots(n_nodes: int, node_of_slot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """CSR lists ``(ptr, slot)``: node ``n``'s slots are ``slot[ptr[n]:ptr[n + 1]]``,
-    ascending. ``node_of_slot`` is the node of each slot, e.g. ``cells.ravel()`` (slot
-    ``(d + 1) e + k``) or ``contacts.nodes.ravel()`` (slot ``2 c + side``): ascending
-    slots are the CPU kernels' order of adding into a node."""
-    node_of_slot = np.asarray(node_of_slot, dtype=np.int64).ravel()
-    ptr = np.zeros(n_nodes + 1, dtype=np.int64)
-    np.cumsum(np.bincount(node_of_slot, minlength=n_nodes), out=ptr[1:])
-    return ptr, np.argsort(node_of_slot, kind="stable").astype(np.int64)
-
-
 class GatherOrder(NamedTuple):
-    """Device CSR lists of each node's cell and contact slots (:func:`node_slots`): what
-    the ordered sums need of a model, made once per model."""
+    """What the ordered sums need of a model, made once per model: device CSR lists of
+    each node's cell and contact slots (:func:`node_slots`) and the slots the elements
+    (``cell_force[e, k]``) and contacts (``on_second[c]``) write their forces to."""
 
     cell_ptr: object
     cell_slot: object
     contact_ptr: object
     contact_slot: object
+    cell_force: object
+    on_second: object
 
     @classmethod
     def of(cls, n_nodes: int, cells: np.ndarray, contact_nodes: np.ndarray) -> GatherOrder:
         """From host arrays: ``cells`` (n, d + 1) and the contacts' node pairs."""
-        return cls(*(cuda.to_device(a) for a in (*node_slots(n_nodes, cells),
-                                                 *node_slots(n_nodes, contact_nodes))))
+        n, k = cells.shape
+        lists = (*node_slots(n_nodes, cells), *node_slots(n_nodes, contact_nodes))
+        return cls(*(cuda.to_device(a) for a in lists), cuda.device_array((n, k, k - 1)),
+                   cuda.device_array((max(len(contact_nodes), 1), k - 1)))
+
+    @classmethod
+    def stand_in(cls, d: int) -> GatherOrder:
+        """One-element arrays of the right types for the atomic kernels (never read)."""
+        one = cuda.to_device(np.zeros(1, np.int64))
+        return cls(one, one, one, one, cuda.device_array((1, d + 1, d)),
+                   cuda.device_array((1, d)))
 
 
-class _SumBuffers(NamedTuple):
-    """What one call's ordered sums read: the model's :class:`GatherOrder`, the CSR lists
-    of the platen nodes (by node) and of the pores' sub-contacts (by pore), each platen
-    node's axis, and the slots the elements, contacts and pores write. The atomic
-    kernels take one-element stand-ins (never read) so that the launches keep their
-    argument types."""
+class _CallSums(NamedTuple):
+    """What one call's ordered sums read besides the model's :class:`GatherOrder`: the
+    CSR lists of the platen nodes (by node) and of the pores' sub-contacts (by pore),
+    each platen node's axis, and the slots the pores' terms go to (stand-ins when
+    atomic)."""
 
-    order: GatherOrder
     platen_ptr: object
     platen_slot: object
     platen_axis: object
     pore_ptr: object
     pore_slot: object
-    cell_force: object
-    on_second: object
     pore_term: object
 
 
-def _sum_buffers(ordered: bool, order: GatherOrder | None, d: int, n_nodes: int,
-                 elements: Elements, contacts: Contacts, platens: PlatenSet,
-                 pores: PoreSpringSet, platen_of: np.ndarray) -> _SumBuffers:
+def _call_sums(ordered: bool, n_nodes: int, platens: PlatenSet, pores: PoreSpringSet,
+               platen_of: np.ndarray) -> _CallSums:
     if not ordered:
         one = cuda.to_device(np.zeros(1, np.int64))
-        return _SumBuffers(order or GatherOrder(one, one, one, one), one, one, one, one, one,
-                           cuda.device_array((1, d + 1, d)), cuda.device_array((1, d)),
-                           cuda.device_array(1))
-    if order is None:
-        order = GatherOrder.of(n_nodes, elements.cells.copy_to_host(),
-                               contacts.nodes.copy_to_host())
+        return _CallSums(one, one, one, one, one, cuda.device_array(1))
     has_platens, has_pores = platens.nodes.shape[0] > 0, pores.contact.shape[0] > 0
     platen_nodes = platens.nodes.copy_to_host() if has_platens else np.zeros(0, np.int64)
     axis = platens.axis.copy_to_host() if has_platens else np.zeros(0, np.int64)
@@ -159,9 +151,7 @@ def _sum_buffers(ordered: bool, order: GatherOrder | None, d: int, n_nodes: int,
     device = [cuda.to_device(a) for a in (*node_slots(n_nodes, platen_nodes),
                                           axis[platen_of].astype(np.int64),
                                           *node_slots(pores.held_void.shape[0], pore))]
-    return _SumBuffers(order, *device, cuda.device_array((elements.cells.shape[0], d + 1, d)),
-                       cuda.device_array((max(contacts.nodes.shape[0], 1), d)),
-                       cuda.device_array(max(pores.contact.shape[0], 1)))
+    return _CallSums(*device, cuda.device_array(max(pores.contact.shape[0], 1)))
 
 
 def fetch_cracks(cracks: CrackLog, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -217,10 +207,13 @@ def run_steps_cuda(control: StepControl, nodes: NodeState, loads: NodeLoads,
     platen_of = np.repeat(np.arange(max(len(offsets) - 1, 0)), np.diff(offsets))
     work = DeviceWork(cuda.to_device(np.zeros(2, np.int64)), cuda.device_array(n_steps),
                       cuda.to_device(platen_of.astype(np.int64)))
-    sums = _sum_buffers(ordered, order, d, n_nodes, elements, contacts, platens, pores,
-                        platen_of)
-    order, cell_force, on_second, pore_term = (sums.order, sums.cell_force, sums.on_second,
-                                               sums.pore_term)
+    if not ordered:
+        order = GatherOrder.stand_in(d)
+    elif order is None:
+        order = GatherOrder.of(n_nodes, elements.cells.copy_to_host(),
+                               contacts.nodes.copy_to_host())
+    sums = _call_sums(ordered, n_nodes, platens, pores, platen_of)
+    cell_force, on_second, pore_term = order.cell_force, order.on_second, sums.pore_term
     k["fill"][_blocks(n_steps, tpb), tpb](work.vmax, 0.0)
     k["fill_rows"][_blocks(n_nodes, tpb), tpb](nodes.force, 0.0)
     dt = float(control.dt)
