@@ -45,6 +45,10 @@ DEFAULT_LOADING = {
     "nscb": {"platen_speed_mm_per_s": 1.25, "stop_fraction": 0.3, "peak_drop_fraction": 0.4},
     "permeability": {"platen_speed_mm_per_s": 25.0, **_PLATEN_TEST},
 }
+# The 3D Brazilian disc approaches its peak 8 x faster, goes back to 75 % of the peak
+# it found and is loaded from there at the test's speed (PlatenLoading's fast
+# approach; measured in decision record 0022).
+DEFAULT_LOADING_3D = {"bts": {"approach_speed_factor": 8.0}}
 
 LAB_GRAINS = {"min_edge_mm": 2.0, "max_edge_mm": 5.0, "zone_size_mm": 1.25}
 
@@ -103,10 +107,17 @@ class LoadingSpec(StrictModel):
     max_strain: float = Field(0.03, gt=0, le=0.2,
                               description="give up at this closure / specimen size")
     sample_steps: int = Field(200, ge=10, le=100_000, description="steps between samples")
+    approach_speed_factor: float | None = Field(
+        None, ge=1, le=16,
+        description="approach the peak this x faster, then go back to 75 % of it and load "
+                    "at platen_speed_mm_per_s; 1: no fast approach; default per test "
+                    "(8 for the 3D Brazilian test, else 1)")
 
-    def resolved(self, test: str) -> LoadingSpec:
-        """This loading with every unset field taken from ``test``'s default."""
-        defaults = DEFAULT_LOADING[test]
+    def resolved(self, test: str, dimension: int = 2) -> LoadingSpec:
+        """This loading with every unset field taken from ``test``'s default (in
+        ``dimension``)."""
+        defaults = {"approach_speed_factor": 1.0, **DEFAULT_LOADING[test],
+                    **(DEFAULT_LOADING_3D.get(test, {}) if dimension == 3 else {})}
         return self.model_copy(update={k: v for k, v in defaults.items()
                                        if getattr(self, k) is None})
 
@@ -180,7 +191,7 @@ class LabTestConfig(StrictModel):
     @property
     def resolved_loading(self) -> LoadingSpec:
         """The loading in use: the loading section, unset fields from the test's default."""
-        return self.loading.resolved(self.test)
+        return self.loading.resolved(self.test, self.dimension)
 
     @property
     def platen_speed_mm_per_s(self) -> float:

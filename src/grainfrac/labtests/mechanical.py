@@ -148,16 +148,32 @@ def bts_test(assembly: GrainAssembly) -> PlatenTest:
 
     lo, hi = _extent(assembly)
     radius = 0.5 * float(hi[1] - lo[1])
-    connect = CONNECT_FACTOR * mesh.zone_size
-    split = [False]  # once split, always split: cracks never heal
+    split = SplitMonitor(mesh.contact_xy, radius, CONNECT_FACTOR * mesh.zone_size)
+    return PlatenTest.build(assembly, place, 2.0 * radius, {"split": split})
 
-    def split_monitor(s) -> float:
-        if not split[0]:
+
+class SplitMonitor:
+    """1.0 once the cracks, at ``contact_xy`` in the disc's section, split it along the
+    loaded diameter (:func:`diametral_split`), else 0.0.
+
+    Cracks never heal, so the split stands while the solver has at least the cracks
+    it had when the split was first seen; a platen loading that goes back in time
+    (its fast approach) has fewer, and the split is looked for again.
+    """
+
+    def __init__(self, contact_xy: np.ndarray, radius: float, connect_distance: float):
+        self.contact_xy, self.radius, self.connect = contact_xy, radius, connect_distance
+        self.split_at: int | None = None  # cracks when the split was first seen
+
+    def __call__(self, s) -> float:
+        n = len(s.cracks.contact)
+        if self.split_at is not None and n < self.split_at:
+            self.split_at = None
+        if self.split_at is None:
             contacts = np.asarray(s.cracks.contact, dtype=np.int64)
-            split[0] = diametral_split(mesh.contact_xy[contacts], radius, connect)
-        return float(split[0])
-
-    return PlatenTest.build(assembly, place, 2.0 * radius, {"split": split_monitor})
+            if diametral_split(self.contact_xy[contacts], self.radius, self.connect):
+                self.split_at = n
+        return float(self.split_at is not None)
 
 
 def reduce_bts(curve: LoadingCurve, assembly: GrainAssembly, config: LabTestConfig,

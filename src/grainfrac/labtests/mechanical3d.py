@@ -18,7 +18,7 @@ import numpy as np
 from grainfrac.analysis.fractures import CONNECT_FACTOR
 from grainfrac.assembly import GrainAssembly
 from grainfrac.geometry.solids3d import LATERAL
-from grainfrac.labtests.mechanical import diametral_split
+from grainfrac.labtests.mechanical import SplitMonitor
 from grainfrac.labtests.platens import PlatenTest, closing_platen
 from grainfrac.loading.boundary import Loads
 from grainfrac.physics.model import MechanicalModel
@@ -83,16 +83,8 @@ def bts_test3d(assembly: GrainAssembly, safety: float = 0.5) -> PlatenTest:
 
     solid = _solid(assembly)
     radius = 0.5 * float(solid.hi[1] - solid.lo[1])
-    connect = CONNECT_FACTOR * mesh.zone_size
-    split = [False]  # once split, always split: cracks never heal
-
-    def split_monitor(s) -> float:
-        if not split[0]:
-            contacts = np.asarray(s.cracks.contact, dtype=np.int64)
-            split[0] = diametral_split(mesh.contact_x[contacts, :2], radius, connect)
-        return float(split[0])
-
-    return PlatenTest.build(assembly, place, 2.0 * radius, {"split": split_monitor}, safety)
+    split = SplitMonitor(mesh.contact_x[:, :2], radius, CONNECT_FACTOR * mesh.zone_size)
+    return PlatenTest.build(assembly, place, 2.0 * radius, {"split": split}, safety)
 
 
 # --------------------------------------------------------------------------- NSCB

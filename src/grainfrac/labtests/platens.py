@@ -89,15 +89,16 @@ class PlatenTest:
             self.loading, self.size, speed=spec.platen_speed_mm_per_s * MM,
             sample_steps=spec.sample_steps, stop_fraction=spec.stop_fraction,
             peak_drop_fraction=spec.peak_drop_fraction, post_peak_factor=spec.post_peak_factor,
-            max_strain=spec.max_strain, monitors=self.monitors)
+            max_strain=spec.max_strain, monitors=self.monitors,
+            approach_factor=spec.approach_speed_factor)
 
     def run(self, spec: LoadingSpec, progress: Callable[[LoadingCurve], None] | None = None,
-            ) -> tuple[LoadingCurve, str]:
-        """Load to failure on the driver; return the curve and why it stopped.
-        ``progress(curve)`` is called after every sample."""
+            ) -> tuple[LoadingCurve, str, int]:
+        """Load to failure on the driver; return the curve, why it stopped and the steps
+        a fast approach discarded. ``progress(curve)`` is called after every sample."""
         stage = self.loading_stage(spec)
         Driver([stage], World(self.assembly, self.solver), _CurveProgress(progress)).execute()
-        return stage.curve, stage.state.stop_reason
+        return stage.curve, stage.state.stop_reason, stage.state.steps_discarded
 
 
 class _CurveProgress(Hooks):

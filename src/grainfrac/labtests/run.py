@@ -56,7 +56,7 @@ def measure(config: LabTestConfig, *, recipe: materials.RockRecipe | None = None
         summary.update(_permeability(config, assembly))
     else:
         test = build_test(config, assembly)
-        curve, reason = test.run(config.resolved_loading, progress)
+        curve, reason, discarded = test.run(config.resolved_loading, progress)
         summary.update(REDUCERS[config.test](curve, assembly, config))
         s = test.solver
         mode = np.asarray(s.cracks.mode, dtype=np.int64)
@@ -66,6 +66,7 @@ def measure(config: LabTestConfig, *, recipe: materials.RockRecipe | None = None
             "n_shear_cracks": int(np.count_nonzero(mode == 2)),
             "platen_speed_mm_per_s": config.platen_speed_mm_per_s,
             "steps": s.step_count,
+            "steps_discarded": discarded,
             "stop_reason": reason,
         })
         out["curve"] = curve
