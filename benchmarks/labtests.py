@@ -94,6 +94,9 @@ def main() -> None:
                 after = next((t for t, load in samples[peak:] if load < drop), None)
                 line += ("" if after is None else f", {after:.1f} s to post-peak")
         print(line + f")  wall {wall:.2f} s", flush=True)
+        if test == "bts":
+            print("              for scale: YADE's JCFPM Brazilian test, 5,090 rigid spheres "
+                  "109 s on one thread, 20,000 spheres 446 s on two (YADE 2023)")
     if args.calibrate is not None:
         from grainfrac import calibration
 
