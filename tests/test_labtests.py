@@ -348,9 +348,11 @@ def test_fast_approach_reads_the_fixed_speed_strength_in_fewer_steps():
     assert curve.n_cracks[-1] == fast["n_cracks"]
 
 
-def test_the_3d_brazilian_test_approaches_fast_by_default():
-    assert lab_test_config("bts", dimension=3).resolved_loading.approach_speed_factor == 8.0
-    for test, dimension in (("bts", 2), ("ucs", 3), ("nscb", 3)):
+def test_3d_brazilian_and_nscb_tests_approach_fast_by_default():
+    for test in ("bts", "nscb"):
+        loading = lab_test_config(test, dimension=3).resolved_loading
+        assert loading.approach_speed_factor == 8.0
+    for test, dimension in (("bts", 2), ("nscb", 2), ("ucs", 3), ("ucs", 2)):
         loading = lab_test_config(test, dimension=dimension).resolved_loading
         assert loading.approach_speed_factor == 1.0
 
