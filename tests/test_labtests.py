@@ -340,6 +340,7 @@ def test_fast_approach_reads_the_fixed_speed_strength_in_fewer_steps():
           f"({change:+.2%}); steps {fixed['steps']} against {total} "
           f"({fast['steps_discarded']} discarded)")
     assert fixed["steps_discarded"] == 0 and fast["steps_discarded"] > 0
+    assert (fixed["approach_speed_factor"], fast["approach_speed_factor"]) == (1.0, 8.0)
     assert abs(change) < 0.01 and total < 0.7 * fixed["steps"]
     assert fast["split_found"]
     closure, time = curve.array("closure"), curve.array("time")

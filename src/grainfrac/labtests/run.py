@@ -65,6 +65,7 @@ def measure(config: LabTestConfig, *, recipe: materials.RockRecipe | None = None
             "n_tensile_cracks": int(np.count_nonzero(mode == 1)),
             "n_shear_cracks": int(np.count_nonzero(mode == 2)),
             "platen_speed_mm_per_s": config.platen_speed_mm_per_s,
+            "approach_speed_factor": config.resolved_loading.approach_speed_factor,
             "steps": s.step_count,
             "steps_discarded": discarded,
             "stop_reason": reason,
