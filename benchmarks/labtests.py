@@ -42,9 +42,11 @@ class SampleClock:
         self.samples: list[tuple[float, float]] = []
 
     def __call__(self, curve: LoadingCurve) -> None:
-        # A fast approach goes back in time: keep the samples of the curve as it stands.
-        del self.samples[len(curve.load) - 1:]
-        self.samples.append((time.perf_counter() - self.start, float(curve.load[-1])))
+        # A fast approach goes back in time: keep the samples of the curve as it stands
+        # (after a rewind the curve has no new sample).
+        del self.samples[len(curve.load):]
+        if len(self.samples) < len(curve.load):
+            self.samples.append((time.perf_counter() - self.start, float(curve.load[-1])))
 
 
 def main() -> None:
