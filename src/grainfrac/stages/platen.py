@@ -118,10 +118,10 @@ class PlatenLoading:
     state: PlatenLoadingState = field(default_factory=PlatenLoadingState)
     curve: LoadingCurve = field(default_factory=LoadingCurve)
     _start: list[float] = field(default_factory=list, init=False, repr=False)
-    # Saved states of the fast approach: (samples taken, samples on the curve, load,
-    # solver state).
-    _saved: list[tuple[int, int, float, dict]] = field(default_factory=list, init=False,
-                                                       repr=False)
+    # Saved states of the fast approach: (samples on the curve, load, solver state).
+    # While approaching, every sample taken is on the curve.
+    _saved: list[tuple[int, float, dict]] = field(default_factory=list, init=False,
+                                                  repr=False)
 
     def load(self) -> float:
         """Mean compressive force of the loading platens (N)."""
@@ -139,7 +139,7 @@ class PlatenLoading:
         self.state.approaching = self.approach_factor > 1.0
         self._start = [p.position for p in self.loading]
         self.curve = LoadingCurve(extra={name: [] for name in self.monitors})
-        self._saved = [(0, 0, 0.0, world.solver.save_state())] if self.state.approaching else []
+        self._saved = [(0, 0.0, world.solver.save_state())] if self.state.approaching else []
 
     def advance(self, world: World) -> None:
         st, s = self.state, world.solver
@@ -163,14 +163,13 @@ class PlatenLoading:
         load = self.curve.load
         peak, _ = first_peak(load, self.peak_drop_fraction)
         low = REWIND_FRACTION * load[peak]
-        return [i for i, (_, kept, at, _) in enumerate(self._saved)
+        return [i for i, (kept, at, _) in enumerate(self._saved)
                 if kept <= peak + 1 and at <= low]
 
     def _save(self, s: MechanicsSolver) -> None:
         """Keep this state; of the older ones keep the start and drop those before the
         last rewind point (the first peak can only rise and move later)."""
-        self._saved.append((self.state.samples, len(self.curve.load), self.curve.load[-1],
-                            s.save_state()))
+        self._saved.append((len(self.curve.load), self.curve.load[-1], s.save_state()))
         del self._saved[1:self._rewind_points()[-1]]
 
     def _rewind(self, s: MechanicsSolver) -> None:
@@ -181,7 +180,8 @@ class PlatenLoading:
         st, curve = self.state, self.curve
         no_peak = st.peak_closure is None and self.closure() >= self.max_strain * self.size
         point = 0 if no_peak else self._rewind_points()[-1]
-        st.samples, kept, _, saved = self._saved[point]
+        kept, _, saved = self._saved[point]
+        st.samples = kept
         self._saved = []
         steps = s.step_count
         s.restore_state(saved)
