@@ -8,6 +8,7 @@ import numpy as np
 
 import grainfrac
 from grainfrac.assembly import GrainAssembly
+from grainfrac.geometry.node_steps import regular_tetrahedron
 from grainfrac.geometry.statistics import grain_size_distribution
 
 
@@ -91,11 +92,9 @@ def regular_tetrahedron_step(edge: float, youngs_modulus: float, poisson_ratio: 
     """Stable step (s) of one free regular tetrahedron, real mass, the solver's safety."""
     from grainfrac.physics.model import model_from_arrays
 
-    h = edge
-    x = np.array([[0, 0, 0], [h, 0, 0], [h / 2, h * np.sqrt(3) / 2, 0],
-                  [h / 2, h * np.sqrt(3) / 6, h * np.sqrt(2 / 3)]])
-    return _grains_only_step(x, np.array([[0, 1, 2, 3]]), np.array([youngs_modulus]),
-                             np.array([poisson_ratio]), np.array([density]), model_from_arrays)
+    return _grains_only_step(regular_tetrahedron(edge), np.array([[0, 1, 2, 3]]),
+                             np.array([youngs_modulus]), np.array([poisson_ratio]),
+                             np.array([density]), model_from_arrays)
 
 
 def _grains_only_step(x, cells, e, nu, rho, model_from_arrays) -> float:
@@ -113,10 +112,13 @@ def stable_steps3d(assembly: GrainAssembly) -> dict[str, float]:
     tetrahedron of quartz (recipe table values; the wall's zone size where the zones
     are refined at the borehole).
 
-    ``grains`` is the real-mass step of the tetrahedra alone (the mesh's own limit),
-    ``with_contacts`` adds the contact springs (Table 2 stiffnesses), ``run`` is the
-    mass-scaled step a simulation uses: a quantile of the nodes' own steps, so that the
-    few nodes of short edges and slivers get mass instead of setting every node's step
+    ``grains_table`` is the real-mass step of the tetrahedra alone with each mineral
+    at its table values (the mesh's own limit: quartz is the recipe's fastest
+    mineral), ``grains`` the same with the grains' Weibull-drawn properties (a grain
+    drawn stiffer than the table has a shorter step on any mesh), ``with_contacts``
+    adds the contact springs (Table 2 stiffnesses), ``run`` is the mass-scaled step a
+    simulation uses: a quantile of the nodes' own steps, so that the few nodes of short
+    edges and slivers get mass instead of setting every node's step
     (``run_added_mass_fraction``: the mass added over the real mass).
     """
     from grainfrac.physics.model import build_mechanical_model, model_from_arrays
@@ -127,13 +129,18 @@ def stable_steps3d(assembly: GrainAssembly) -> dict[str, float]:
     ref = regular_tetrahedron_step(mesh.wall_zone_size, float(mtab.youngs_modulus_Pa[q]),
                                    float(mtab.poisson_ratio[q]), float(mtab.density_kg_m3[q]))
     rec = mesh.record()
+    mineral = assembly.element_mineral
+    table = _grains_only_step(rec.x, rec.cells, mtab.youngs_modulus_Pa[mineral],
+                              mtab.poisson_ratio[mineral], mtab.density_kg_m3[mineral],
+                              model_from_arrays)
     grains = _grains_only_step(rec.x, rec.cells, assembly.element_youngs_modulus,
                                assembly.element_poisson_ratio, assembly.element_density,
                                model_from_arrays)
     real = build_mechanical_model(assembly, mass_scaling=False).dt
     run = build_mechanical_model(assembly)
-    return {"regular_quartz_tet_s": ref, "grains_s": grains, "with_contacts_s": real,
-            "run_mass_scaled_s": run.dt, "grains_ratio": grains / ref,
+    return {"regular_quartz_tet_s": ref, "grains_table_s": table, "grains_s": grains,
+            "with_contacts_s": real, "run_mass_scaled_s": run.dt,
+            "grains_table_ratio": table / ref, "grains_ratio": grains / ref,
             "with_contacts_ratio": real / ref, "run_ratio": run.dt / ref,
             "run_added_mass_fraction": float(run.mass.sum() / run.real_mass.sum() - 1.0)}
 
@@ -197,8 +204,11 @@ def quality_rows3d(summary: dict[str, Any]) -> list[tuple[str, str]]:
         ("min dihedral angle (deg)", f"{summary['min_dihedral_angle_deg']:.2f}"),
         ("shortest grain edge (mm)", f"{summary['shortest_edge_mm']:.3f}"),
         ("tet volume error (relative)", f"{summary['volume_relative_error']:.1e}"),
-        ("stable step, tets only (s)", f"{s['grains_s']:.3e} ({s['grains_ratio']:.3f} x "
-                                       "regular quartz tet)"),
+        ("stable step, tets, table minerals (s)", f"{s['grains_table_s']:.3e} "
+                                                  f"({s['grains_table_ratio']:.3f} x "
+                                                  "regular quartz tet)"),
+        ("stable step, tets, drawn grains (s)", f"{s['grains_s']:.3e} "
+                                                f"({s['grains_ratio']:.3f} x)"),
         ("stable step, with contacts (s)", f"{s['with_contacts_s']:.3e} "
                                            f"({s['with_contacts_ratio']:.3f} x)"),
         ("stable step, mass-scaled run (s)", f"{s['run_mass_scaled_s']:.3e} "
