@@ -895,7 +895,8 @@ def _ring_pass(cx: GrainComplex, seeds: np.ndarray, ring: _Ring, n_lat: int,
                                     & (np.hypot(seeds[:, 0], seeds[:, 1])
                                        < solid.apothem + reach))
             local_ring = window[window >= n_lat]
-            cells = _LocalCells(solid, slice(len(window) - len(local_ring), len(window)))
+            cells = _LocalCells(solid, slice(len(window) - len(local_ring), len(window)),
+                                box=True)
             near = range(max(0, layer - 1), min(ring.n_layers, layer + 2))
             own = np.searchsorted(window, [n_lat + k * n_facets + j for k in near
                                            for j in range(n_facets)]).tolist()
@@ -941,17 +942,30 @@ def _complex_score(cx: GrainComplex, limit: float) -> tuple[int, float]:
 
 class _LocalCells:
     """Voronoi cells of a few seeds among all (uncut: the solid's parts are left out),
-    for judging a seed move by the edges around it."""
+    for judging a seed move by the edges around it.
 
-    def __init__(self, solid: Solid, ring: slice):
-        self.solid, self.ring = solid, ring
+    ``box``: the box's sides are half-spaces of every cell instead of mirror images
+    of every seed across them (the same planes: a mirror's bisector is its side), so a
+    window of seeds costs a Delaunay of those seeds and the borehole's facet mirrors
+    only; for box solids (the ring repair).
+    """
+
+    def __init__(self, solid: Solid, ring: slice, box: bool = False):
+        self.solid, self.ring, self.box = solid, ring, box
         self.scale = float(solid.extent.max())
-        self.clip = solid.clip_halfspaces()
-        self.clip_labels = np.column_stack((np.full(len(self.clip), _FACET),
-                                            np.arange(len(self.clip))))
+        clip = solid.clip_halfspaces()
+        if box:
+            eye = np.eye(3)
+            clip = np.vstack((clip, np.column_stack((eye, -solid.hi)),
+                              np.column_stack((-eye, solid.lo))))
+        self.clip = clip
+        self.clip_labels = np.column_stack((np.full(len(clip), _FACET), np.arange(len(clip))))
 
     def triangulate(self, seeds: np.ndarray) -> tuple:
         mirrors, side = _mirrors(self.solid, seeds, self.ring)
+        if self.box:
+            facet = np.all((mirrors >= self.solid.lo) & (mirrors <= self.solid.hi), axis=1)
+            mirrors, side = mirrors[facet], side[facet]
         points = np.vstack((seeds, mirrors))
         label = np.concatenate((np.arange(len(seeds)), -1 - side))
         indptr, indices = Delaunay(points).vertex_neighbor_vertices
