@@ -113,8 +113,8 @@ def stable_steps3d(assembly: GrainAssembly) -> dict[str, float]:
     are refined at the borehole).
 
     ``grains_table`` is the real-mass step of the tetrahedra alone with each mineral
-    at its table values (the mesh's own limit: quartz is the recipe's fastest
-    mineral), ``grains`` the same with the grains' Weibull-drawn properties (a grain
+    at its table values (the mesh's own limit where quartz is the fastest mineral,
+    as in Table 2), ``grains`` the same with the grains' Weibull-drawn properties (a grain
     drawn stiffer than the table has a shorter step on any mesh), ``with_contacts``
     adds the contact springs (Table 2 stiffnesses), ``run`` is the mass-scaled step a
     simulation uses: a quantile of the nodes' own steps, so that the few nodes of short
