@@ -895,13 +895,15 @@ def _ring_pass(cx: GrainComplex, seeds: np.ndarray, ring: _Ring, n_lat: int,
             window = np.flatnonzero((np.abs(seeds[:, 2] - z) < reach)
                                     & (np.hypot(seeds[:, 0], seeds[:, 1])
                                        < solid.apothem + reach))
-            local_ring = window[window >= n_lat]
-            cells = _LocalCells(solid, slice(len(window) - len(local_ring), len(window)),
+            # Box solids hold no seeds after the ring's, so the window ends with them.
+            n_local_ring = int(np.count_nonzero(window >= n_lat))
+            cells = _LocalCells(solid, slice(len(window) - n_local_ring, len(window)),
                                 box=True)
             near = range(max(0, layer - 1), min(ring.n_layers, layer + 2))
             own = np.searchsorted(window, [n_lat + k * n_facets + j for k in near
                                            for j in range(n_facets)]).tolist()
             before = cells.triangulate(seeds[window])
+            around_before = set(own).union(*(cells.neighbours(before, s) for s in own))
             known: dict[int, tuple[int, float]] = {}  # cells of `before` measured so far
             kept = ring.state()
             for _ in range(_RING_TRIES):
@@ -909,10 +911,8 @@ def _ring_pass(cx: GrainComplex, seeds: np.ndarray, ring: _Ring, n_lat: int,
                 trial = seeds.copy()
                 trial[ring_slice] = ring.seeds()
                 after = cells.triangulate(trial[window])
-                around = set(own)
-                for s in own:
-                    around |= cells.neighbours(before, s) | cells.neighbours(after, s)
-                around = sorted(around)
+                around = sorted(around_before.union(*(cells.neighbours(after, s)
+                                                      for s in own)))
                 if _better(cells.score(after, around, limit),
                            cells.score(before, around, limit, known)):
                     seeds, moved = trial, True
