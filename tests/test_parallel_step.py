@@ -136,7 +136,7 @@ def test_threads_option_is_checked_before_any_compute(monkeypatch):
     from typer.testing import CliRunner
 
     from grainfrac.cli import app
-    from grainfrac.physics.solver import THREADS_VARIABLE, default_threads
+    from grainfrac.threads import THREADS_VARIABLE, default_threads
 
     monkeypatch.setenv(THREADS_VARIABLE, "1")  # restored after the test
     runner = CliRunner()

@@ -39,6 +39,7 @@ from grainfrac.geometry.tessellation import tessellate
 from grainfrac.geometry.tessellation3d import TooFewGrains, tessellate3d
 from grainfrac.geometry.zone_sizes import ZoneSizes
 from grainfrac.io.config import StrictModel, read_toml, source_path, validate
+from grainfrac.threads import default_threads
 from grainfrac.units import MM
 
 # Named random streams, spawned from the seed in this order (never reorder).
@@ -390,7 +391,7 @@ def _build_assembly3d(config: SpecimenConfig, recipe: materials.RockRecipe) -> G
         raise ConfigError("grains.max_edge_mm", str(exc)) from None
     mesh = mesh_grains3d(cx, zone, rngs["tessellation"],
                          (config.grains.min_edge_mm * MM, config.grains.max_edge_mm * MM),
-                         mend_steps=g.mend_steps)
+                         mend_steps=g.mend_steps, threads=default_threads())
 
     def eligible(clear: float) -> np.ndarray:
         return interface_axis_distance(mesh) > clear

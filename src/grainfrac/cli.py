@@ -52,12 +52,8 @@ def _options(
         return  # numba is not imported for commands that do not step
     import os
 
-    from grainfrac.physics.solver import (
-        BACKEND_VARIABLE,
-        THREADS_VARIABLE,
-        default_threads,
-        resolve_backend,
-    )
+    from grainfrac.physics.solver import BACKEND_VARIABLE, resolve_backend
+    from grainfrac.threads import THREADS_VARIABLE, default_threads
 
     if threads is not None:
         os.environ[THREADS_VARIABLE] = threads

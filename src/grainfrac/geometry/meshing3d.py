@@ -26,6 +26,7 @@ sub-contact per face (node of the lower grain, node of the higher grain).
 from __future__ import annotations
 
 import math
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import ClassVar
 
@@ -258,7 +259,7 @@ def tet_quality(p: np.ndarray) -> np.ndarray:
 
 def mesh_grains3d(cx: GrainComplex, zone_size: float | ZoneSizes, rng: np.random.Generator,
                   grain_bounds: tuple[float, float] = (0.0, np.inf), *,
-                  mend_steps: bool = False) -> GrainMesh3D:
+                  mend_steps: bool = False, threads: int = 1) -> GrainMesh3D:
     """Mesh every piece into tetrahedra; build sub-contacts and the face flow graph.
 
     Parameters
@@ -276,6 +277,8 @@ def mesh_grains3d(cx: GrainComplex, zone_size: float | ZoneSizes, rng: np.random
     mend_steps
         Edit the interior points of pieces whose nodes would set a short stable
         step (:func:`_mend_step`).
+    threads
+        Threads that mesh the pieces (the mesh is the same on any number).
     """
     zones = as_zone_sizes(zone_size)
     points = _PointBuffer(cx.vertices)
@@ -322,22 +325,33 @@ def mesh_grains3d(cx: GrainComplex, zone_size: float | ZoneSizes, rng: np.random
         face_tris.append(ids[tri])
         face_point_area.append(trib)
 
-    # Tetrahedralise each piece; interior points are the piece's own.
-    piece_ids, piece_tets = [], []
-    for p in range(cx.n_pieces):
-        fl = cx.piece_faces[p]
-        bnd = np.unique(np.concatenate([face_point_ids[f] for f in fl]))
-        bxyz = points[bnd]
-        interior = _cell_lattice(cx, p, zones, rng)
-        local_x, tets = _tetrahedralise(bxyz, interior, p)
+    # Tetrahedralise each piece; interior points are the piece's own. The lattices are
+    # drawn in piece order first, so the pieces can be meshed on several threads
+    # (Qhull lets go of the GIL) with the same result on any number.
+    boundary = [np.unique(np.concatenate([face_point_ids[f] for f in fl]))
+                for fl in cx.piece_faces]
+    interiors = [_cell_lattice(cx, p, zones, rng) for p in range(cx.n_pieces)]
+
+    def mesh_piece(p: int) -> tuple[np.ndarray, np.ndarray]:
+        bxyz = points[boundary[p]]
+        local_x, tets = _tetrahedralise(bxyz, interiors[p], p)
         if mend_steps:
             local_x, tets = _mend_step(bxyz, local_x, tets, p, zones.at(bxyz))
+        return local_x, tets
+
+    if threads > 1:
+        with ThreadPoolExecutor(threads) as pool:
+            meshed = list(pool.map(mesh_piece, range(cx.n_pieces)))
+    else:
+        meshed = [mesh_piece(p) for p in range(cx.n_pieces)]
+    piece_tets = []
+    for p, (bnd, (local_x, tets)) in enumerate(zip(boundary, meshed, strict=True)):
+        fl = cx.piece_faces[p]
         ids = np.concatenate((bnd, np.arange(n_pts, n_pts + len(local_x) - len(bnd))))
         if len(local_x) > len(bnd):
             points.add(local_x[len(bnd):])
             n_pts += len(local_x) - len(bnd)
         _check_conforming(ids[tets], [face_tris[f] for f in fl], p)
-        piece_ids.append(ids)
         piece_tets.append(ids[tets])
     pts = points.array()
     return _assemble(cx, zones, pts, face_point_ids, face_tris, face_point_area, piece_tets,

@@ -898,6 +898,7 @@ def _ring_pass(cx: GrainComplex, seeds: np.ndarray, ring: _Ring, n_lat: int,
     reach = _RING_WINDOW * ring.a
     best, best_score, best_seeds, best_ring = cx, _complex_score(cx, limit), seeds, ring.state()
     start = seeds
+    measured: dict[bytes, np.ndarray] = {}  # cells' edges, shared by the layers' windows
     for _ in range(_RING_SWEEPS):
         bad, _ = _violations(cx, 0.0, np.inf, zone_size, fraction)
         if cx.piece_seed is not None:
@@ -917,7 +918,7 @@ def _ring_pass(cx: GrainComplex, seeds: np.ndarray, ring: _Ring, n_lat: int,
             # Box solids hold no seeds after the ring's, so the window ends with them.
             n_local_ring = int(np.count_nonzero(window >= n_lat))
             cells = _LocalCells(solid, slice(len(window) - n_local_ring, len(window)),
-                                box=True)
+                                box=True, cache=measured)
             near = range(max(0, layer - 1), min(ring.n_layers, layer + 2))
             own = np.searchsorted(window, [n_lat + k * n_facets + j for k in near
                                            for j in range(n_facets)]).tolist()
@@ -973,10 +974,12 @@ class _LocalCells:
     ``box``: the box's sides are half-spaces of every cell instead of mirror images
     of every seed across them (the same planes: a mirror's bisector is its side), so a
     window of seeds costs a Delaunay of those seeds and the borehole's facet mirrors
-    only; for box solids (the ring repair).
+    only; for box solids (the ring repair). ``cache``: cells' edges measured so far,
+    to share between instances over the same solid.
     """
 
-    def __init__(self, solid: Solid, ring: slice, box: bool = False):
+    def __init__(self, solid: Solid, ring: slice, box: bool = False,
+                 cache: dict[bytes, np.ndarray] | None = None):
         self.solid, self.ring, self.box = solid, ring, box
         self.scale = float(solid.extent.max())
         clip = solid.clip_halfspaces()
@@ -986,7 +989,7 @@ class _LocalCells:
                               np.column_stack((-eye, solid.lo))))
         self.clip = clip
         self.clip_labels = np.column_stack((np.full(len(clip), _FACET), np.arange(len(clip))))
-        self._cache: dict[bytes, np.ndarray] = {}
+        self._cache = {} if cache is None else cache
 
     def triangulate(self, seeds: np.ndarray) -> tuple:
         mirrors, side = _mirrors(self.solid, seeds, self.ring)

@@ -30,6 +30,7 @@ from grainfrac.physics.records import (
     StepControl,
     new_energies,
 )
+from grainfrac.threads import default_threads
 
 # The solver's evolving state: what a checkpoint saves and a rejected step restores.
 STATE_ARRAYS = ("u", "v", "stress", "bonded", "status", "sigma_n", "tau", "damage",
@@ -40,34 +41,9 @@ STATE_ARRAYS = ("u", "v", "stress", "bonded", "status", "sigma_n", "tau", "damag
 SET_BY_STAGES = ("eigenstrain_rate", "initial_strain")
 
 
-# Environment variable naming the CPU threads of the explicit step (see default_threads).
-THREADS_VARIABLE = "GRAINFRAC_THREADS"
 # Environment variable naming the backend of the explicit step (see resolve_backend).
 BACKEND_VARIABLE = "GRAINFRAC_BACKEND"
 BACKENDS = ("cpu", "cuda")
-
-
-def default_threads() -> int:
-    """CPU threads of the explicit step: ``$GRAINFRAC_THREADS``, ``all``, or 1.
-
-    One by default: parallel regions on busy cores are catastrophically slow (measured
-    on this project's 2-core machine under load: a 1296-tetrahedron step took 34.6 ms
-    on 2 threads against 0.39 ms on 1), and Dask workers already fill the cores. A
-    run on a machine of its own asks for more with ``--threads`` or the variable
-    (``all``: every core numba may use).
-    """
-    value = os.environ.get(THREADS_VARIABLE, "1").strip().lower()
-    limit = numba.config.NUMBA_NUM_THREADS
-    if value == "all":
-        return limit
-    try:
-        threads = int(value)
-    except ValueError:
-        raise ValueError(f"{THREADS_VARIABLE} must be a whole number or 'all', got "
-                         f"{value!r}") from None
-    if not 1 <= threads <= limit:
-        raise ValueError(f"{THREADS_VARIABLE} must be in [1, {limit}] or 'all', got {threads}")
-    return threads
 
 
 def resolve_backend(requested: str | None = None) -> str:
