@@ -297,14 +297,14 @@ def test_node_step_ratio_is_the_mechanics_stable_step():
 def mended_pair():
     spec = {"dimension": 3, "seed": 1, "specimen": {"shape": "slab", "width_mm": 40,
                                                     "height_mm": 40}}
-    return (build_specimen(spec),
-            build_specimen({**spec, "grains": {"mend_steps": True}}))
+    return (build_specimen({**spec, "grains": {"mend_steps": False}}),
+            build_specimen(spec))
 
 
 def test_mending_lengthens_the_stable_step_and_keeps_the_assembly_exact(mended_pair):
-    """``grains.mend_steps`` edits only grain interiors (and the ring's layers): the
-    volume, the faces' areas and the conforming contacts stay exact, and the
-    real-mass step of the tetrahedra gets longer (docs/decisions/3d-mesher.md)."""
+    """``grains.mend_steps`` (the default) edits only grain interiors (and the ring's
+    layers): the volume, the faces' areas and the conforming contacts stay exact, and
+    the real-mass step of the tetrahedra gets longer (docs/decisions/3d-mesher.md)."""
     from grainfrac.geometry.node_steps import node_step_ratio
     from grainfrac.specimen_report import stable_steps3d
 

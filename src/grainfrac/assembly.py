@@ -63,10 +63,10 @@ class GrainSpec(StrictModel):
         5.0, gt=0, le=100, description="band beside the borehole wall meshed at "
         "wall_zone_size_mm [mm]; zones grow back to zone_size_mm over a second band as wide")
     mend_steps: bool = Field(
-        False, description="3D only: mend the mesh where it sets a short real-mass "
+        True, description="3D only: mend the mesh where it sets a short real-mass "
         "stable step (redraw borehole-ring layers next to short edges; edit grain "
-        "interiors until no node's step is below 0.35 of a regular zone's); off by "
-        "default, so that the documented 3D figures keep their meshes")
+        "interiors until no node's step is below 0.35 of a regular zone's); false: "
+        "the plain meshes, quicker to build")
 
     @model_validator(mode="after")
     def _ordered(self) -> GrainSpec:
