@@ -746,9 +746,9 @@ def _complex(solid: Solid, seeds: np.ndarray, grain_of_seed: np.ndarray,
     for e, entry in enumerate(entries):
         first.setdefault(entry[2], e)
     chosen = sorted(first.values())
-    rings = dict(zip(chosen, zip(*_order_polygons(
-        vertices, [entries[e][4] for e in chosen],
-        np.array([entries[e][3] for e in chosen]).reshape(-1, 3)), strict=True), strict=True))
+    ordered, areas = _order_polygons(vertices, [entries[e][4] for e in chosen],
+                                     np.array([entries[e][3] for e in chosen]).reshape(-1, 3))
+    rings = {e: (ring, area) for e, ring, area in zip(chosen, ordered, areas, strict=True)}
     tiny = 1e-12 * scale ** 2
 
     face_key: dict[tuple[int, ...], int] = {}
