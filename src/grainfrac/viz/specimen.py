@@ -11,6 +11,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.collections import LineCollection, PolyCollection  # noqa: E402
 from matplotlib.patches import Patch  # noqa: E402
+from matplotlib.ticker import MaxNLocator  # noqa: E402
 
 from grainfrac.assembly import GrainAssembly  # noqa: E402
 from grainfrac.io.files import write_atomic  # noqa: E402
@@ -139,11 +140,16 @@ def plot_assembly3d(assembly: GrainAssembly, path: str | Path, *,
     ax.set_ylim(lo[1], hi[1])
     ax.set_zlim(lo[2], hi[2])
     ax.set_box_aspect(tuple(hi - lo))
+    # As many z ticks as the axis is long against the others (a thin slab's ran into
+    # each other).
+    nbins = max(1, round(5 * (hi[2] - lo[2]) / float(np.max(hi - lo))))
+    ax.zaxis.set_major_locator(MaxNLocator(nbins))
     ax.view_init(elev=28, azim=-58)
     ax.set_xlabel("x (mm)")
     ax.set_ylabel("y (mm)")
     ax.set_zlabel("z (mm)")
-    ax.set_title("outer faces and borehole wall", fontsize=10)
+    ax.set_title("outer faces and borehole wall" if cx.solid.borehole_radius > 0
+                 else "outer faces", fontsize=10)
 
     ax2 = fig.add_subplot(1, 2, 2)
     # Just off mid-height: the borehole ring's layer faces can lie exactly on it.
@@ -174,6 +180,7 @@ def plot_assembly3d(assembly: GrainAssembly, path: str | Path, *,
     if title:
         fig.suptitle(title, fontsize=11)
     fig.tight_layout()
+    fig.subplots_adjust(wspace=0.3)  # tight_layout does not see the 3D view's z label
     out = write_atomic(path, lambda p: fig.savefig(p, format="png", bbox_inches="tight"))
     plt.close(fig)
     return out
