@@ -530,8 +530,9 @@ def _mend_step(bxyz: np.ndarray, x: np.ndarray, tets: np.ndarray, piece: int, h:
         for trial in trials:
             xt, tt = _tetrahedralise(bxyz, trial, piece)
             rt = node_step_ratio(xt, tt, h)
-            if float(np.nanmin(rt)) > (worst if best is None else best[0]):
-                best = (float(np.nanmin(rt)), xt, tt, rt)
+            low = float(np.nanmin(rt))
+            if low > (worst if best is None else best[0]):
+                best = (low, xt, tt, rt)
         if best is None:
             break
         worst, x, tets, ratio = best

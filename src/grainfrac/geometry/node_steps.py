@@ -11,6 +11,8 @@ The mesher uses it to find and mend the few nodes that would set a whole run's s
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 # Lame constants of the reference material (nu = 0.25: lambda = mu); the ratio depends
@@ -62,6 +64,12 @@ def node_step_ratio(x: np.ndarray, tets: np.ndarray, zone_size: float) -> np.nda
     zone_size : float
         Edge of the reference tetrahedron (m).
     """
-    reference = np.nanmax(_row_bound_over_mass(regular_tetrahedron(zone_size),
-                                               np.array([[0, 1, 2, 3]])))
-    return np.sqrt(reference / _row_bound_over_mass(x, tets))
+    return np.sqrt(_reference_bound(float(zone_size)) / _row_bound_over_mass(x, tets))
+
+
+@functools.lru_cache(maxsize=64)
+def _reference_bound(zone_size: float) -> float:
+    """Row bound over mass of a free regular tetrahedron (the mesher asks once per
+    piece and per trial, with a handful of zone sizes)."""
+    return float(np.nanmax(_row_bound_over_mass(regular_tetrahedron(zone_size),
+                                                np.array([[0, 1, 2, 3]]))))

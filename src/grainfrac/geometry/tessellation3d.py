@@ -745,7 +745,7 @@ def _complex(solid: Solid, seeds: np.ndarray, grain_of_seed: np.ndarray,
     first: dict[tuple[int, ...], int] = {}
     for e, entry in enumerate(entries):
         first.setdefault(entry[2], e)
-    chosen = sorted(first.values())
+    chosen = list(first.values())  # in entry order
     ordered, areas = _order_polygons(vertices, [entries[e][4] for e in chosen],
                                      np.array([entries[e][3] for e in chosen]).reshape(-1, 3))
     rings = {e: (ring, area) for e, ring, area in zip(chosen, ordered, areas, strict=True)}
