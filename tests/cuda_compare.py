@@ -4,7 +4,8 @@ Run by ``tests/test_cuda_backend.py`` in a subprocess with ``NUMBA_ENABLE_CUDASI
 (the simulator must be chosen before numba is imported), or directly on a GPU.
 Usage: ``python tests/cuda_compare.py N_CELLS STEPS CYCLES VELOCITY [extras]``; with
 ``extras`` a platen presses on the top face and a pore's fluid pressure follows
-the void of the middle contact plane (:class:`~grainfrac.physics.solver.PoreSprings`).
+the void of the middle contact plane and its rate
+(:class:`~grainfrac.physics.solver.PoreSprings`).
 ``$GRAINFRAC_CUDA_SUMS`` chooses the GPU's ordered or atomic sums.
 """
 
@@ -50,9 +51,11 @@ def main() -> None:
             half = block.model.n_contacts // 2
             c = np.arange(half, block.model.n_contacts)  # the second contact plane
             area = block.model.contact_area[c]
+            # The pore's pipes resist its void's growth (kernels.pore_pressure).
             solver.pore_springs = PoreSprings(
                 c, np.zeros(len(c), np.int64), np.full(len(c), 1e-7), 1e-6,
-                np.array([2e-6 * area.sum()]), np.array([1e-18]), np.array([30e6]))
+                np.array([2e-6 * area.sum()]), np.array([1e-18]), np.array([30e6]),
+                resistance=np.array([1e6 / area.sum()]))
         solvers.append(solver)
     cpu, gpu_host = solvers
     for _ in range(cycles):
@@ -83,6 +86,7 @@ def main() -> None:
         "platen": [(p.position, p.reaction) for p in cpu.loads.platens],
         "platen_gpu": [(p.position, p.reaction) for p in gpu_host.loads.platens],
         "time": [cpu.time, gpu_host.time],
+        "pore_dissipated": [float(s.pore_springs.dissipated[0]) for s in (cpu, gpu_host)],
     }
     # A blow-up: the pull outruns a 5 m/s velocity limit in the first step; both
     # backends stop after it and say so.

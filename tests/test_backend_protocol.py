@@ -77,7 +77,7 @@ def _advance_with_cpu_kernels(self, n_steps, *, timings=None):
                     float(s.velocity_limit), 1),
         _host(self._nodes), _host(self._loads), _host(self._elements),
         _host(self._element_state), _host(self._contacts), _host(self._contact_state),
-        s.model.adjacency, _host(self._platens), _host(self._pores_device()),
+        s.model.adjacency, _host(self._platens), s.pore_springs.record(),
         np.asarray(self._energies).view(ENERGY_DTYPE), _host(self._cracks))
 
 

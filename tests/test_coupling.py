@@ -319,15 +319,18 @@ def test_pore_spring_pressure_follows_the_void():
     held_void = 2 * 2e-5 * 1e-6 + 5e6 * storage  # 5 MPa at 1 um openings (less a0)
     pressure = np.zeros(2)
 
-    def at(opening, held=held_void, ceiling=np.inf):
+    def at(opening, held=held_void, ceiling=np.inf, speed=0.0, resistance=0.0, lost=None):
         u = np.zeros((4, 2))
         u[1, 0] = u[3, 0] = opening
+        v = np.zeros((4, 2))
+        v[1, 0] = v[3, 0] = speed
         zero = np.zeros(2)
         contacts = Contacts(contact_nodes, contact_frame(normal), area, *[zero] * 7)
+        dissipated = np.zeros(1) if lost is None else lost
         pores = PoreSpringSet(np.array([0, 1]), np.array([0, 0]), np.full(2, a0), a0,
                               np.array([held]), np.array([storage]), np.array([ceiling]),
-                              np.zeros(1))
-        pore_spring_pressure(u, contacts, pores, pressure)
+                              np.array([resistance]), np.zeros(1), np.zeros(1), dissipated)
+        pore_spring_pressure(u, v, 1e-7, contacts, pores, pressure)
         return pressure.copy()
 
     assert np.allclose(at(1e-6 - a0), 5e6)
@@ -341,6 +344,45 @@ def test_pore_spring_pressure_follows_the_void():
     # A drained pore holds its solved pressure when squeezed, and loses it past its fluid.
     assert np.allclose(at(0.9e-6 - a0, ceiling=5e6), 5e6)
     assert np.allclose(at(1.01e-6 - a0, ceiling=5e6), 5e6 - 2 * 2e-5 * 0.01e-6 / storage)
+
+
+def test_a_pore_s_flow_resistance_damps_its_void_and_books_what_it_dissipates():
+    """A drained pore whose void grows at dV/dt loses R dV/dt of pressure (the drop that
+    draws the fluid through its pipes), and R (dV/dt)^2 dt is booked as dissipated; a
+    shut pore (at its smallest aperture) has no rate; the drop stops at zero pressure."""
+    from grainfrac.geometry.mesh import contact_frame
+    from grainfrac.physics.kernels import pore_spring_pressure
+    from grainfrac.physics.records import Contacts, PoreSpringSet
+
+    area, a0, storage, dt = 2e-5, 2e-7, 1e-18, 1e-7
+    contacts = Contacts(np.array([[0, 1], [2, 3]]), contact_frame(np.array([[1.0, 0.0]] * 2)),
+                        np.full(2, area), *[np.zeros(2)] * 7)
+    held = 2 * area * 1e-6 + 5e6 * storage  # 5 MPa at 1 um openings (less a0)
+
+    def at(opening, speed, resistance):
+        u = np.zeros((4, 2))
+        u[1, 0] = u[3, 0] = opening
+        v = np.zeros((4, 2))
+        v[1, 0] = v[3, 0] = speed
+        lost = np.zeros(1)
+        pores = PoreSpringSet(np.array([0, 1]), np.array([0, 0]), np.full(2, a0), a0,
+                              np.array([held]), np.array([storage]), np.array([5e6]),
+                              np.array([resistance]), np.zeros(1), np.zeros(1), lost)
+        pressure = np.zeros(2)
+        pore_spring_pressure(u, v, dt, contacts, pores, pressure)
+        return pressure, lost[0]
+
+    rate = 2 * area * 0.01  # m3/s: both faces part at 1 cm/s
+    p, lost = at(1e-6 - a0, 0.01, 1e12)
+    assert np.allclose(p, 5e6 - 1e12 * rate)
+    assert lost == pytest.approx(1e12 * rate**2 * dt, rel=1e-12)
+    p, lost = at(1e-6 - a0, -0.01, 1e12)  # closing: the drained pore's ceiling holds
+    assert np.allclose(p, 5e6) and lost == 0.0
+    p, lost = at(-1e-3, 0.01, 1e12)  # shut: its void does not move
+    assert np.allclose(p, 5e6) and lost == 0.0
+    p, lost = at(1e-6 - a0, 0.01, 1e15)  # the drop stops at zero pressure
+    assert np.all(p == 0.0) and lost == pytest.approx(5e6 * rate * dt, rel=1e-12)
+    assert at(1e-6 - a0, 0.01, 0.0) == (pytest.approx(np.full(2, 5e6)), 0.0)
 
 
 def test_an_undrained_pore_starts_its_step_at_the_solved_pressure(coupled):
@@ -359,7 +401,7 @@ def test_an_undrained_pore_starts_its_step_at_the_solved_pressure(coupled):
         assert c in r.contact
         assert np.isinf(r.ceiling[r.pore[np.flatnonzero(r.contact == c)[0]]])
         pressure = np.zeros(m.model.n_contacts)
-        pore_spring_pressure(m.u, m.model.contacts, r.record(), pressure)
+        pore_spring_pressure(m.u, m.v, m.model.dt, m.model.contacts, r.record(), pressure)
     finally:
         coupled.state = saved
     assert pressure[c] == pytest.approx(5.0 * MPA, rel=1e-6)
@@ -395,7 +437,7 @@ def test_a_drained_pore_holds_its_pressure_only_within_its_fluid(coupled):
         b = model.contact_nodes[mine, 1]
         u[b] += opening * model.contact_normal[mine]
         out = np.zeros(model.n_contacts)
-        pore_spring_pressure(u, model.contacts, r.record(), out)
+        pore_spring_pressure(u, np.zeros_like(u), 1.0, model.contacts, r.record(), out)
         return out[c]
 
     assert pressure_at(0.0) == pytest.approx(5.0 * MPA)

@@ -68,6 +68,9 @@ def _check(report: dict, states: float = TOLERANCE) -> None:
     (gpu_pos, gpu_reac), = report["platen_gpu"]
     assert gpu_pos == cpu_pos and gpu_reac == pytest.approx(cpu_reac, rel=states, abs=0)
     assert report["time"][0] == report["time"][1]
+    cpu_lost, gpu_lost = report["pore_dissipated"]
+    if cpu_lost:  # with extras: the pore's flow resistance dissipated as much on both
+        assert gpu_lost == pytest.approx(cpu_lost, rel=TOLERANCE)
     assert report["blowup_steps"] == [1, 1]
 
 

@@ -414,24 +414,52 @@ def contact_strain_energy(sigma_n, tau, kn, ks, area) -> float:
 
 
 @njit(cache=True)
-def pore_spring_pressure(u, contacts, pores, pressure):
+def pore_pressure(held_void, void, storage, ceiling, resistance, rate, dt):
+    """One pore's pressure (Pa) at ``void`` (m3) changing at ``rate`` (m3/s), and the
+    energy (J) its flow resistance dissipates over ``dt``: the spring
+    ``(held_void - void) / storage`` less ``resistance x rate``, within [0, ceiling]."""
+    spring = min(max((held_void - void) / storage, 0.0), ceiling)
+    if resistance <= 0.0:
+        return spring, 0.0
+    p = min(max(spring - resistance * rate, 0.0), ceiling)
+    return p, (spring - p) * rate * dt
+
+
+@njit(cache=True)
+def pore_spring_pressure(u, v, dt, contacts, pores, pressure):
     """Set the fluid pressure of the listed pores from their current void.
 
     Pore ``k``'s void is ``V = sum A max(a0 + u_n, lower)`` over its
     sub-contacts ``pores.contact`` (``initial_aperture`` = a0); its pressure is
-    ``max(0, (held_void[k] - V) / storage[k])``, at most ``ceiling[k]``: a spring
-    of compliance ``storage`` about the void its fluid fills at zero pressure.
+    ``(held_void[k] - V) / storage[k] - resistance[k] dV/dt``, at least 0 and at most
+    ``ceiling[k]``: a spring of compliance ``storage`` about the void its fluid fills at
+    zero pressure, and the pressure drop that draws (or drives) the fluid through the
+    pore's pipes at the rate its void changes. ``dV/dt`` sums ``A v_n`` over the
+    sub-contacts above their smallest aperture (``v`` the velocities that moved the
+    nodes into ``u``). The drop's work on the grains, dissipated in the fluid, is added
+    to ``pores.dissipated[0]`` (J) for steps of ``dt``.
     """
     pores.void[:] = 0.0
+    pores.rate[:] = 0.0
     for j in range(pores.contact.shape[0]):
         c = pores.contact[j]
-        u_n = relative_normal(u, contacts.nodes[c, 0], contacts.nodes[c, 1], contacts.frame, c)
-        aperture = max(pores.initial_aperture + u_n, pores.lower[j])
-        pores.void[pores.pore[j]] += contacts.area[c] * aperture
-    for j in range(pores.contact.shape[0]):
+        a = contacts.nodes[c, 0]
+        b = contacts.nodes[c, 1]
+        u_n = relative_normal(u, a, b, contacts.frame, c)
+        aperture = pores.initial_aperture + u_n
         k = pores.pore[j]
-        pressure[pores.contact[j]] = min(max(
-            (pores.held_void[k] - pores.void[k]) / pores.storage[k], 0.0), pores.ceiling[k])
+        if aperture > pores.lower[j]:
+            pores.rate[k] += contacts.area[c] * relative_normal(v, a, b, contacts.frame, c)
+        else:
+            aperture = pores.lower[j]
+        pores.void[k] += contacts.area[c] * aperture
+    for k in range(pores.held_void.shape[0]):
+        p, dissipated = pore_pressure(pores.held_void[k], pores.void[k], pores.storage[k],
+                                      pores.ceiling[k], pores.resistance[k], pores.rate[k], dt)
+        pores.dissipated[0] += dissipated
+        pores.void[k] = p  # the workspace now holds the pore's pressure
+    for j in range(pores.contact.shape[0]):
+        pressure[pores.contact[j]] = pores.void[pores.pore[j]]
 
 
 # -- nodes and platens ------------------------------------------------------------------
@@ -604,7 +632,7 @@ def run_steps(control, nodes, loads, elements, element_state, contacts, contact_
                 trace += stress[e, k]
             book.expansion_work -= elements.measure[e] * trace * rate[e] * dt
         if pores.contact.shape[0] > 0:
-            pore_spring_pressure(nodes.u, contacts, pores, contact_state.pressure)
+            pore_spring_pressure(nodes.u, nodes.v, dt, contacts, pores, contact_state.pressure)
         if parallel:
             contact_updates(nodes, contacts, contact_state, dt, control.allow_failure,
                             (on_second, contact_books, broke), threads)

@@ -210,7 +210,10 @@ class PoreSpringSet(NamedTuple):
     held_void: np.ndarray
     storage: np.ndarray
     ceiling: np.ndarray
+    resistance: np.ndarray
     void: np.ndarray  # workspace, one per pore
+    rate: np.ndarray  # workspace, one per pore
+    dissipated: np.ndarray  # (1,) J, accumulated
 
 
 class CrackLog(NamedTuple):

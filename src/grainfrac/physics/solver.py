@@ -8,7 +8,7 @@ nor plots (that is io/ and viz/).
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numba
 import numpy as np
@@ -103,6 +103,8 @@ class PoreSprings:
     held_void: np.ndarray
     storage: np.ndarray
     ceiling: np.ndarray
+    resistance: np.ndarray | None = None
+    dissipated: np.ndarray = field(default_factory=lambda: np.zeros(1))
 
     @classmethod
     def none(cls) -> PoreSprings:
@@ -111,10 +113,12 @@ class PoreSprings:
                    empty, empty)
 
     def record(self) -> PoreSpringSet:
-        """The kernels' record, with a fresh void workspace."""
+        """The kernels' record, with fresh workspaces."""
+        n = len(self.held_void)
+        resistance = np.zeros(n) if self.resistance is None else self.resistance
         return PoreSpringSet(self.contact, self.pore, self.lower, float(self.initial_aperture),
-                             self.held_void, self.storage, self.ceiling,
-                             np.zeros(len(self.held_void)))
+                             self.held_void, self.storage, self.ceiling, resistance,
+                             np.zeros(n), np.zeros(n), self.dissipated)
 
 
 class MechanicsSolver:

@@ -194,22 +194,29 @@ def step_kernels(d: int, tpb: int, ordered: bool = True):
             cuda.atomic.add(energy, E_EXPANSION, total)
 
     @cuda.jit
-    def pore_void_sum(u, contact_nodes, frame, area, pore_contact, pore, lower,
-                      initial_aperture, pore_void, pore_term, control):
-        """V_k = sum A max(a0 + u_n, lower) over pore k's sub-contacts: each term into
-        ``pore_term`` when ordered (``segment_sums`` adds them), else atomics."""
+    def pore_void_sum(u, v, contact_nodes, frame, area, pore_contact, pore, lower,
+                      initial_aperture, pore_void, pore_rate, pore_term, rate_term, control):
+        """V_k = sum A max(a0 + u_n, lower) over pore k's sub-contacts, and its rate
+        sum A v_n over those above ``lower``: each term into ``pore_term`` /
+        ``rate_term`` when ordered (``segment_sums`` adds them), else atomics."""
         if control[HALTED] != 0:
             return
         j = cuda.grid(1)
         if j < pore_contact.shape[0]:
             c = pore_contact[j]
-            u_n = kernels.relative_normal(raw(u), contact_nodes[c, 0], contact_nodes[c, 1],
-                                          raw(frame), c)
-            aperture = max(initial_aperture + u_n, lower[j])
+            a, b = contact_nodes[c, 0], contact_nodes[c, 1]
+            aperture = initial_aperture + kernels.relative_normal(raw(u), a, b, raw(frame), c)
+            rate = 0.0
+            if aperture > lower[j]:
+                rate = area[c] * kernels.relative_normal(raw(v), a, b, raw(frame), c)
+            else:
+                aperture = lower[j]
             if ordered:
                 pore_term[j] = area[c] * aperture
+                rate_term[j] = rate
             else:
                 cuda.atomic.add(pore_void, pore[j], area[c] * aperture)
+                cuda.atomic.add(pore_rate, pore[j], rate)
 
     @cuda.jit
     def segment_sums(ptr, slot, values, out, control):
@@ -226,16 +233,29 @@ def step_kernels(d: int, tpb: int, ordered: bool = True):
             out[k] = total
 
     @cuda.jit
-    def pore_pressure(pore_contact, pore, held_void, storage, ceiling, pore_void,
-                      pressure, control):
-        """p = min(max((held_void - V) / storage, 0), ceiling) on each listed sub-contact."""
+    def pore_pressures(dt, held_void, storage, ceiling, resistance, pore_void, pore_rate,
+                       dissipated, control):
+        """Each pore's pressure into ``pore_void`` (:func:`kernels.pore_pressure`), its
+        dissipation added to ``dissipated[0]``; the rate is zeroed for the next step."""
+        if control[HALTED] != 0:
+            return
+        k = cuda.grid(1)
+        if k < held_void.shape[0]:
+            p, lost = kernels.pore_pressure(held_void[k], pore_void[k], storage[k], ceiling[k],
+                                            resistance[k], pore_rate[k], dt)
+            if lost != 0.0:
+                cuda.atomic.add(dissipated, 0, lost)
+            pore_void[k] = p
+            pore_rate[k] = 0.0
+
+    @cuda.jit
+    def pore_pressure(pore_contact, pore, pore_pressure_of, pressure, control):
+        """Each listed sub-contact gets its pore's pressure."""
         if control[HALTED] != 0:
             return
         j = cuda.grid(1)
         if j < pore_contact.shape[0]:
-            k = pore[j]
-            pressure[pore_contact[j]] = min(max(
-                (held_void[k] - pore_void[k]) / storage[k], 0.0), ceiling[k])
+            pressure[pore_contact[j]] = pore_pressure_of[pore[j]]
 
     @cuda.jit
     def contact_forces(step, dt, allow_failure, u, v, force, contact_nodes, frame, area, kn, ks,
@@ -426,7 +446,8 @@ def step_kernels(d: int, tpb: int, ordered: bool = True):
     return {
         "fill": fill, "fill_rows": fill_rows, "element_forces": element_forces,
         "pore_void_sum": pore_void_sum, "segment_sums": segment_sums,
-        "pore_pressure": pore_pressure, "contact_forces": contact_forces,
+        "pore_pressures": pore_pressures, "pore_pressure": pore_pressure,
+        "contact_forces": contact_forces,
         "platen_forces": platen_forces, "update_nodes": update_nodes,
         "platen_work": platen_work,
     }

@@ -128,10 +128,6 @@ class CudaMechanics:
         stepper.copy_fields(self._contact_state, s.contact_state(), CHANGED_CONTACT_ARRAYS)
         stepper.add_energies(s.energies, self._energies)
 
-    def _pores_device(self):
-        """The solver's pore springs on the device (set per cycle by a coupling)."""
-        return stepper.to_device(self.solver.pore_springs.record())
-
     def advance(self, n_steps: int, *, timings: dict[str, float] | None = None
                 ) -> tuple[int, int]:
         """Advance ``n_steps`` on the device only; return (new cracks, steps done).
@@ -140,14 +136,18 @@ class CudaMechanics:
         :func:`~grainfrac.physics.cuda.stepper.run_steps_cuda`; slower).
         """
         s, m = self.solver, self.solver.model
-        return stepper.run_steps_cuda(
+        pores = s.pore_springs.record()
+        on_device = stepper.to_device(pores)
+        done = stepper.run_steps_cuda(
             StepControl(int(n_steps), m.dt, s.damping, bool(s.allow_failure),
                         float(s.velocity_limit), 1),
             self._nodes, self._loads, self._elements, self._element_state, self._contacts,
-            self._contact_state, self._platens, self._pores_device(), self._energies,
+            self._contact_state, self._platens, on_device, self._energies,
             self._cracks, tpb=self.tpb, sync_every=max(int(n_steps), 1), timings=timings,
             ordered=self.ordered, order=self._order,
         )
+        on_device.dissipated.copy_to_host(pores.dissipated)  # the pores' books, in place
+        return done
 
     def cycle(self, n_steps: int, *, timings: dict[str, float] | None = None
               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:

@@ -137,13 +137,14 @@ class _CallSums(NamedTuple):
     pore_ptr: object
     pore_slot: object
     pore_term: object
+    rate_term: object
 
 
 def _call_sums(ordered: bool, n_nodes: int, platens: PlatenSet, pores: PoreSpringSet,
                platen_of: np.ndarray) -> _CallSums:
     if not ordered:
         one = cuda.to_device(np.zeros(1, np.int64))
-        return _CallSums(one, one, one, one, one, cuda.device_array(1))
+        return _CallSums(one, one, one, one, one, cuda.device_array(1), cuda.device_array(1))
     has_platens, has_pores = platens.nodes.shape[0] > 0, pores.contact.shape[0] > 0
     platen_nodes = platens.nodes.copy_to_host() if has_platens else np.zeros(0, np.int64)
     axis = platens.axis.copy_to_host() if has_platens else np.zeros(0, np.int64)
@@ -151,7 +152,8 @@ def _call_sums(ordered: bool, n_nodes: int, platens: PlatenSet, pores: PoreSprin
     device = [cuda.to_device(a) for a in (*node_slots(n_nodes, platen_nodes),
                                           axis[platen_of].astype(np.int64),
                                           *node_slots(pores.held_void.shape[0], pore))]
-    return _CallSums(*device, cuda.device_array(max(pores.contact.shape[0], 1)))
+    n_terms = max(pores.contact.shape[0], 1)
+    return _CallSums(*device, cuda.device_array(n_terms), cuda.device_array(n_terms))
 
 
 def fetch_cracks(cracks: CrackLog, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -230,16 +232,20 @@ def run_steps_cuda(control: StepControl, nodes: NodeState, loads: NodeLoads,
         nodes.force, energies, work.control, work.vmax, limit, platens.position,
         platens.velocity, platens.reaction, pores.void, cell_force), varying=(0,))
     if n_pore_contacts:
+        n_pores = pores.held_void.shape[0]
         pore_void_sum = PreparedLaunch(k["pore_void_sum"], gq, tpb, (
-            nodes.u, contacts.nodes, contacts.frame, contacts.area, pores.contact, pores.pore,
-            pores.lower, float(pores.initial_aperture), pores.void, pore_term, work.control))
+            nodes.u, nodes.v, contacts.nodes, contacts.frame, contacts.area, pores.contact,
+            pores.pore, pores.lower, float(pores.initial_aperture), pores.void, pores.rate,
+            pore_term, sums.rate_term, work.control))
         if ordered:
-            pore_void_gather = PreparedLaunch(
-                k["segment_sums"], _blocks(pores.held_void.shape[0], tpb), tpb,
-                (sums.pore_ptr, sums.pore_slot, pore_term, pores.void, work.control))
+            pore_sums = [PreparedLaunch(k["segment_sums"], _blocks(n_pores, tpb), tpb,
+                                        (sums.pore_ptr, sums.pore_slot, term, out, work.control))
+                         for term, out in ((pore_term, pores.void), (sums.rate_term, pores.rate))]
+        pore_pressures = PreparedLaunch(k["pore_pressures"], _blocks(n_pores, tpb), tpb, (
+            dt, pores.held_void, pores.storage, pores.ceiling, pores.resistance, pores.void,
+            pores.rate, pores.dissipated, work.control))
         pore_pressure = PreparedLaunch(k["pore_pressure"], gq, tpb, (
-            pores.contact, pores.pore, pores.held_void, pores.storage, pores.ceiling,
-            pores.void, cs.pressure, work.control))
+            pores.contact, pores.pore, pores.void, cs.pressure, work.control))
     if n_contacts:
         contact_forces = PreparedLaunch(k["contact_forces"], gc, tpb, (
             0, dt, allow, nodes.u, nodes.v, nodes.force, contacts.nodes, contacts.frame,
@@ -274,7 +280,9 @@ def run_steps_cuda(control: StepControl, nodes: NodeState, loads: NodeLoads,
         if n_pore_contacts:
             pore_void_sum()
             if ordered:
-                pore_void_gather()
+                for pore_sum in pore_sums:
+                    pore_sum()
+            pore_pressures()
             pore_pressure()
         if n_contacts:
             contact_forces(step)
