@@ -35,7 +35,9 @@ How the simulated quantities are read (one realisation of the grains):
 
 The cube is confined by an isotropic stress (1 MPa, five to ten times the net
 pressures) that holds the plane shut where the fluid has not arrived: the M-vertex
-has no fluid lag. The paper does not state its model's confinement.
+has no fluid lag. The paper does not state its model's confinement. The cut disc
+starts full of fluid at the confinement, its faces settled under it (a fracture with
+no net pressure); the fluid's books start there.
 
 The cube is not infinite: at 4 ms the reference radius is 14.8 mm, a quarter of the
 cube's side, so the free faces soften the response a little (the fracture opens
