@@ -603,7 +603,7 @@ class HydroMechanicalSolver:
         net = self.network
         pressure = self.state.pressure
         m = self.mechanics
-        pore, contact, pores, local, springs = self._pore_layout()
+        pore, contact, pores, local, springs, inertia = self._pore_layout()
         if len(contact) == 0:
             return PoreSprings.none()
         undrained = (pressure > self.well_pressure) | (pressure <= 0.0)
@@ -622,13 +622,8 @@ class HydroMechanicalSolver:
         start = np.where(sealed, void, filled)
         # The pipes' resistance to the flow a moving void draws, capped where the
         # explicit step would no longer damp it stably.
-        model = m.model
-        nodes = model.contact_nodes[contact]
-        inertia = np.bincount(local, weights=model.contact_area[contact] ** 2
-                              * (1 / model.mass[nodes[:, 0]] + 1 / model.mass[nodes[:, 1]]),
-                              minlength=len(pores))
         with np.errstate(divide="ignore"):
-            resistance = np.minimum(dt / supply, PORE_DAMPING_LIMIT / (model.dt * inertia))
+            resistance = np.minimum(dt / supply, PORE_DAMPING_LIMIT / (m.model.dt * inertia))
         resistance = np.where(sealed | ~(supply > 0), 0.0, resistance)
         return PoreSprings(
             contact=contact, pore=local,
@@ -639,9 +634,10 @@ class HydroMechanicalSolver:
 
     def _pore_layout(self) -> tuple[np.ndarray, ...]:
         """Which unknown each sub-contact fills, the sub-contacts of free pores (not the
-        well's), those pores, each listed sub-contact's pore among them, and each
-        pore's contact springs sum A / kn. Fixed by the network's unknowns: found once
-        (on the 100 mm cube they cost as much as the rest of the pore springs)."""
+        well's), those pores, each listed sub-contact's pore among them, each pore's
+        contact springs sum A / kn, and how its void's rate answers its pressure,
+        sum A^2 (1/m_a + 1/m_b) (m4/kg). Fixed by the network's unknowns: found
+        once (on the 100 mm cube they cost as much as the rest of the pore springs)."""
         net = self.network
         cached = self._pore_layout_cache
         if (cached is not None and cached[0][0] is net.unknown_of_node
@@ -654,9 +650,13 @@ class HydroMechanicalSolver:
         contact = np.flatnonzero(listed[pore])
         pores, local = np.unique(pore[contact], return_inverse=True)
         model = self.mechanics.model
-        springs = np.bincount(local, weights=model.contact_area[contact]
-                              / model.normal_stiffness[contact])
-        layout = (pore, contact.astype(np.int64), pores, local.astype(np.int64), springs)
+        area = model.contact_area[contact]
+        springs = np.bincount(local, weights=area / model.normal_stiffness[contact])
+        nodes = model.contact_nodes[contact]
+        inertia = np.bincount(local, weights=area**2 * (1 / model.mass[nodes[:, 0]]
+                                                       + 1 / model.mass[nodes[:, 1]]))
+        layout = (pore, contact.astype(np.int64), pores, local.astype(np.int64), springs,
+                  inertia)
         self._pore_layout_cache = ((net.unknown_of_node, net.fixed, net.well_unknown), layout)
         return layout
 
