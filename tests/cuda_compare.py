@@ -53,8 +53,9 @@ def main() -> None:
             area = block.model.contact_area[c]
             # The pore's pipes resist its void's growth (kernels.pore_pressure).
             solver.pore_springs = PoreSprings(
-                c, np.zeros(len(c), np.int64), np.full(len(c), 1e-7), 1e-6,
-                np.array([2e-6 * area.sum()]), np.array([1e-18]), np.array([30e6]),
+                c, np.zeros(len(c), np.int64), np.full(len(c), 1e-7),
+                np.linspace(1e-6, 3e-6, len(c)),  # a0 of each void (closure_storage)
+                np.array([2.5e-6 * area.sum()]), np.array([1e-18]), np.array([30e6]),
                 resistance=np.array([1e6 / area.sum()]))
         solvers.append(solver)
     cpu, gpu_host = solvers

@@ -37,7 +37,8 @@ def pore_springs(coupled: HydroMechanicalSolver):
                                                   coupled.fluid))
 
 
-def _case2_slab(freed_wall_grain: int | None = None) -> HydroMechanicalSolver:
+def _case2_slab(freed_wall_grain: int | None = None,
+                fluid: flow.FluidProperties | None = None) -> HydroMechanicalSolver:
     """A 50 mm slab (seed 1) under stress Case 2 with a well; optionally the
     ``freed_wall_grain``-th grain at the borehole wall has lost all its bonds."""
     slab = {"shape": "slab", "width_mm": 50.0, "height_mm": 50.0}
@@ -54,7 +55,7 @@ def _case2_slab(freed_wall_grain: int | None = None) -> HydroMechanicalSolver:
         mechanics.bonded[(pairs == grain).any(axis=1)] = False
     network = flow.build_flow_network(mesh, well=True,
                                       permeable_sides=dict.fromkeys(("left", "right"), 0.0))
-    return HydroMechanicalSolver(assembly, mechanics, network, flow.FluidProperties())
+    return HydroMechanicalSolver(assembly, mechanics, network, fluid or flow.FluidProperties())
 
 
 @pytest.fixture(scope="module")
@@ -327,7 +328,7 @@ def test_pore_spring_pressure_follows_the_void():
         zero = np.zeros(2)
         contacts = Contacts(contact_nodes, contact_frame(normal), area, *[zero] * 7)
         dissipated = np.zeros(1) if lost is None else lost
-        pores = PoreSpringSet(np.array([0, 1]), np.array([0, 0]), np.full(2, a0), a0,
+        pores = PoreSpringSet(np.array([0, 1]), np.array([0, 0]), np.full(2, a0), np.full(2, a0),
                               np.array([held]), np.array([storage]), np.array([ceiling]),
                               np.array([resistance]), np.zeros(1), np.zeros(1), dissipated)
         pore_spring_pressure(u, v, 1e-7, contacts, pores, pressure)
@@ -365,7 +366,7 @@ def test_a_pore_s_flow_resistance_damps_its_void_and_books_what_it_dissipates():
         v = np.zeros((4, 2))
         v[1, 0] = v[3, 0] = speed
         lost = np.zeros(1)
-        pores = PoreSpringSet(np.array([0, 1]), np.array([0, 0]), np.full(2, a0), a0,
+        pores = PoreSpringSet(np.array([0, 1]), np.array([0, 0]), np.full(2, a0), np.full(2, a0),
                               np.array([held]), np.array([storage]), np.array([5e6]),
                               np.array([resistance]), np.zeros(1), np.zeros(1), lost)
         pressure = np.zeros(2)
@@ -454,6 +455,44 @@ def test_a_drained_pore_holds_its_pressure_only_within_its_fluid(coupled):
     finally:
         coupled.state = saved
     assert pressure_at(0.0) < 5.0 * MPA
+
+
+def test_closure_storage_voids_follow_the_faces_and_the_grains_see_the_same_void():
+    """With ``closure_storage`` a broken contact pressed below its smallest aperture holds
+    a void that grows by every metre its faces part (the aperture that conducts stays at
+    the floor), and the void the mechanics' pore springs see is the fluid's: the fluid
+    pressure then does work p dV on the grains only for a void the fluid fills."""
+    from dataclasses import replace
+
+    from grainfrac.physics.kernels import pore_spring_pressure
+    from grainfrac.physics.kinematics import contact_opening
+
+    solver = _case2_slab(fluid=flow.FluidProperties(closure_storage=True))
+    m, net, model = solver.mechanics, solver.network, solver.mechanics.model
+    floor = solver.fluid.residual_aperture
+    # At the reference state (construction) the void is the aperture law's.
+    assert np.allclose(solver.void_aperture(), solver.aperture(), rtol=1e-12, atol=0.0)
+    opening = contact_opening(solver.assembly, m.u)
+    listed = pore_springs(solver).contact
+    pressed = listed[(opening[listed] < -2e-9)]  # pressed to the floor by >= 2 nm
+    assert len(pressed) > 10
+    c = int(pressed[0])
+    m.bonded[c] = False
+    part = -0.5 * opening[c]
+    m.u[model.contact_nodes[c, 1]] += part * model.contact_normal[c]
+    assert solver.aperture()[c] == pytest.approx(floor, rel=1e-12)
+    assert solver.void_aperture()[c] == pytest.approx(floor + part, rel=1e-9)
+    # The pore springs' void (held_void - pressure at unit storage) is the fluid's.
+    springs = pore_springs(solver)
+    held = np.full(len(springs.held_void), 1e-10)  # m3, more than any pore here
+    r = replace(springs, held_void=held, storage=np.ones_like(held),
+                ceiling=np.full_like(held, np.inf), resistance=np.zeros_like(held))
+    pressure = np.zeros(model.n_contacts)
+    pore_spring_pressure(m.u, np.zeros_like(m.u), 1.0, model.contacts, r.record(), pressure)
+    grains = held - pressure[springs.contact[np.unique(springs.pore, return_index=True)[1]]]
+    fluid = flow.storage_volume(net, solver.void_aperture())
+    pores = np.unique(net.contact_unknown[springs.contact])
+    assert np.allclose(grains, fluid[pores], rtol=1e-12, atol=0.0)
 
 
 def test_the_borehole_void_closes_across_open_crack_mouths(coupled):

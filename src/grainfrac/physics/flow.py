@@ -69,6 +69,9 @@ class FluidProperties:
     # A broken (or fissured) grain boundary does not close back to the intact
     # aperture: its faces no longer match. Default None: same as a_res.
     broken_residual_aperture: float | None = None
+    # The void of a contact pressed below its smallest aperture follows its faces as
+    # they part (the conductance keeps the aperture law): see closure_initial_aperture.
+    closure_storage: bool = False
 
 
 @dataclass(frozen=True)
@@ -367,13 +370,25 @@ def borehole_volume(mesh: GrainMesh, displacement: np.ndarray | None = None,
 
 
 def pore_aperture(opening: np.ndarray, fluid: FluidProperties,
-                  bonded: np.ndarray | None = None) -> np.ndarray:
+                  bonded: np.ndarray | None = None,
+                  initial_aperture: np.ndarray | None = None) -> np.ndarray:
     """``max(a0 + opening, lower)`` per sub-contact (m), the width of the void that
-    holds fluid; ``lower`` from :func:`smallest_aperture`. Pipes cap it at a_max
+    holds fluid; ``lower`` from :func:`smallest_aperture`, a0 the fluid's or
+    ``initial_aperture`` (per sub-contact). Pipes cap it at a_max
     (:func:`pipe_conductance`)."""
     lower = (np.full(np.shape(opening), fluid.residual_aperture) if bonded is None
              else smallest_aperture(fluid, bonded))
-    return np.maximum(fluid.initial_aperture + opening, lower)
+    a0 = fluid.initial_aperture if initial_aperture is None else initial_aperture
+    return np.maximum(a0 + opening, lower)
+
+
+def closure_initial_aperture(opening: np.ndarray, fluid: FluidProperties) -> np.ndarray:
+    """Per sub-contact, the a0 of a void that follows its faces from ``opening`` (m, the
+    reference state's) on: ``max(a0, lower - opening)`` with ``lower`` a broken contact's
+    smallest aperture, so that the void is ``lower`` at that opening and grows by every
+    metre the faces part from there (:attr:`FluidProperties.closure_storage`)."""
+    lower = smallest_aperture(fluid, np.zeros(np.shape(opening), dtype=bool))
+    return np.maximum(fluid.initial_aperture, lower - opening)
 
 
 def smallest_aperture(fluid: FluidProperties, bonded: np.ndarray) -> np.ndarray:
@@ -515,7 +530,8 @@ def implicit_step(network: FlowNetwork, state: FluidState, aperture: np.ndarray,
     staggered mechanics delivers next; with both zero this is the plain
     conservative step). Content then changes by exactly the net flow.
     ``well_volume`` is the borehole's current void (default: undeformed);
-    ``pipe_links``: :func:`links` of ``network`` and ``aperture``, if the caller has them.
+    ``pipe_links``: :func:`links` of ``network`` and ``aperture``, if the caller has them
+    (or of the apertures that conduct, where the voids are not as wide: closure_storage).
     """
     c = _compressibility(network, fluid)
     v_new = storage_volume(network, aperture, well_volume)

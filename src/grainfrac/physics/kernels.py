@@ -430,7 +430,8 @@ def pore_spring_pressure(u, v, dt, contacts, pores, pressure):
     """Set the fluid pressure of the listed pores from their current void.
 
     Pore ``k``'s void is ``V = sum A max(a0 + u_n, lower)`` over its
-    sub-contacts ``pores.contact`` (``initial_aperture`` = a0); its pressure is
+    sub-contacts ``pores.contact`` (``initial_aperture`` = a0, per sub-contact); its
+    pressure is
     ``(held_void[k] - V) / storage[k] - resistance[k] dV/dt``, at least 0 and at most
     ``ceiling[k]``: a spring of compliance ``storage`` about the void its fluid fills at
     zero pressure, and the pressure drop that draws (or drives) the fluid through the
@@ -446,7 +447,7 @@ def pore_spring_pressure(u, v, dt, contacts, pores, pressure):
         a = contacts.nodes[c, 0]
         b = contacts.nodes[c, 1]
         u_n = relative_normal(u, a, b, contacts.frame, c)
-        aperture = pores.initial_aperture + u_n
+        aperture = pores.initial_aperture[j] + u_n
         k = pores.pore[j]
         if aperture > pores.lower[j]:
             pores.rate[k] += contacts.area[c] * relative_normal(v, a, b, contacts.frame, c)

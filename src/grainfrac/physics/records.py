@@ -206,7 +206,7 @@ class PoreSpringSet(NamedTuple):
     contact: np.ndarray
     pore: np.ndarray
     lower: np.ndarray
-    initial_aperture: float
+    initial_aperture: np.ndarray  # a0 of each listed sub-contact's void
     held_void: np.ndarray
     storage: np.ndarray
     ceiling: np.ndarray

@@ -91,15 +91,16 @@ class PoreSprings:
 
     ``contact`` lists their sub-contacts, ``pore`` the pore of each (an index
     into the per-pore arrays), ``lower`` each sub-contact's smallest aperture,
-    ``initial_aperture`` a0; per pore, ``held_void`` (m3), ``storage`` (m3/Pa)
-    and ``ceiling`` (Pa), the most pressure it may reach. See
+    ``initial_aperture`` the a0 of its void (one for all, or one each); per pore,
+    ``held_void`` (m3), ``storage`` (m3/Pa) and ``ceiling`` (Pa), the most pressure it
+    may reach. See
     :func:`grainfrac.physics.kernels.pore_spring_pressure`.
     """
 
     contact: np.ndarray
     pore: np.ndarray
     lower: np.ndarray
-    initial_aperture: float
+    initial_aperture: float | np.ndarray
     held_void: np.ndarray
     storage: np.ndarray
     ceiling: np.ndarray
@@ -116,7 +117,8 @@ class PoreSprings:
         """The kernels' record, with fresh workspaces."""
         n = len(self.held_void)
         resistance = np.zeros(n) if self.resistance is None else self.resistance
-        return PoreSpringSet(self.contact, self.pore, self.lower, float(self.initial_aperture),
+        a0 = np.broadcast_to(np.asarray(self.initial_aperture, float), self.contact.shape)
+        return PoreSpringSet(self.contact, self.pore, self.lower, np.ascontiguousarray(a0),
                              self.held_void, self.storage, self.ceiling, resistance,
                              np.zeros(n), np.zeros(n), self.dissipated)
 

@@ -205,7 +205,7 @@ def step_kernels(d: int, tpb: int, ordered: bool = True):
         if j < pore_contact.shape[0]:
             c = pore_contact[j]
             a, b = contact_nodes[c, 0], contact_nodes[c, 1]
-            aperture = initial_aperture + kernels.relative_normal(raw(u), a, b, raw(frame), c)
+            aperture = initial_aperture[j] + kernels.relative_normal(raw(u), a, b, raw(frame), c)
             rate = 0.0
             if aperture > lower[j]:
                 rate = area[c] * kernels.relative_normal(raw(v), a, b, raw(frame), c)

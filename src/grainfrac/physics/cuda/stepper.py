@@ -235,7 +235,7 @@ def run_steps_cuda(control: StepControl, nodes: NodeState, loads: NodeLoads,
         n_pores = pores.held_void.shape[0]
         pore_void_sum = PreparedLaunch(k["pore_void_sum"], gq, tpb, (
             nodes.u, nodes.v, contacts.nodes, contacts.frame, contacts.area, pores.contact,
-            pores.pore, pores.lower, float(pores.initial_aperture), pores.void, pores.rate,
+            pores.pore, pores.lower, pores.initial_aperture, pores.void, pores.rate,
             pore_term, sums.rate_term, work.control))
         if ordered:
             pore_sums = [PreparedLaunch(k["segment_sums"], _blocks(n_pores, tpb), tpb,
