@@ -120,11 +120,11 @@ class HydroMechanicalSolver:
         # Every pipe, sealed grain interiors included; self.network conducts.
         self._all_pipes = network
         self.fluid = fluid
-        self.network = self._conducting_network()
-        self.base_external = mechanics.loads.external.copy()
         # Per sub-contact a0 of the void (fluid.closure_storage), else None: the fluid's.
         self._void_a0: np.ndarray | None = None
         self._set_closure_reference()
+        self.network = self._conducting_network()
+        self.base_external = mechanics.loads.external.copy()
         self._wall_loop = (flow.borehole_wall_loop(assembly.mesh)
                            if network.wall_pressurised else None)
         self.well_unit_forces = (
@@ -199,19 +199,23 @@ class HydroMechanicalSolver:
 
     def aperture(self) -> np.ndarray:
         """Per sub-contact, the aperture that conducts (m, :func:`flow.pore_aperture`)."""
-        n = self.assembly.mesh.n_contacts
-        return flow.pore_aperture(contact_opening(self.assembly, self.mechanics.u),
-                                  self.fluid, self.mechanics.bonded[:n])
+        return self._apertures()[0]
 
     def void_aperture(self) -> np.ndarray:
         """Per sub-contact, the width of the void that holds fluid (m): the aperture,
         or with ``fluid.closure_storage`` one that follows the faces through their
         closure from the reference state (:meth:`saturate`, or construction)."""
-        if self._void_a0 is None:
-            return self.aperture()
+        return self._apertures()[1]
+
+    def _apertures(self) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`aperture` and :meth:`void_aperture`, from one reading of the openings."""
         n = self.assembly.mesh.n_contacts
-        return flow.pore_aperture(contact_opening(self.assembly, self.mechanics.u),
-                                  self.fluid, self.mechanics.bonded[:n], self._void_a0)
+        opening = contact_opening(self.assembly, self.mechanics.u)
+        bonded = self.mechanics.bonded[:n]
+        aperture = flow.pore_aperture(opening, self.fluid, bonded)
+        if self._void_a0 is None:
+            return aperture, aperture
+        return aperture, flow.pore_aperture(opening, self.fluid, bonded, self._void_a0)
 
     def _set_closure_reference(self) -> None:
         """With ``fluid.closure_storage``: each void's a0 from the faces' current opening.
@@ -531,8 +535,7 @@ class HydroMechanicalSolver:
         """Apertures, compliances and borehole void of the current mechanical state."""
         count = self.mechanics.step_count
         if self._pores is None or self._pores[0] != count:
-            aperture = self.aperture()
-            void = aperture if self._void_a0 is None else self.void_aperture()
+            aperture, void = self._apertures()
             self.network = self._conducting_network(aperture)
             cracks = self._open_cracks()
             local, shared = self.crack_compliance(cracks)
