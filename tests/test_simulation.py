@@ -100,6 +100,17 @@ def test_resume_after_kill_mid_injection_gives_the_same_result(reference, tmp_pa
           f"({resumed['n_cracks']} cracks, peak {resumed['peak_well_pressure_MPa']:.3f} MPa)")
 
 
+def test_closure_storage_runs_and_resumes_to_the_same_result(reference, tmp_path):
+    """``fluid.closure_storage`` reaches the coupling (the run differs from the default
+    one) and its reference state travels with the checkpoint: killed and resumed, the
+    run ends as the uninterrupted one."""
+    sc = _scenario(fluid={**SMALL["fluid"], "closure_storage": True})
+    whole = run_scenario(sc, sc.recipe(), tmp_path / "whole")
+    assert whole["hydraulic_energy_J"] != reference[1]["hydraulic_energy_J"]
+    resumed = killed_then_resumed(sc, tmp_path / "killed", "inject", 12)
+    assert _comparable(resumed) == _comparable(whole)
+
+
 def test_blow_up_names_stage_step_time_and_keeps_last_good_state(tmp_path, monkeypatch):
     original = HydroMechanicalSolver.advance
 

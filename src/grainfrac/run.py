@@ -584,6 +584,9 @@ class Run(Hooks):
             records["fluid/coupling"] = {"base_external": w.coupled.base_external}
             if w.coupled.mouths_open is not None:
                 records["fluid/coupling"]["mouths_open"] = w.coupled.mouths_open
+            if w.coupled.void_initial_aperture is not None:
+                records["fluid/coupling"]["void_initial_aperture"] = \
+                    w.coupled.void_initial_aperture
         write_checkpoint(self.checkpoint_path, records)
         self.write_history()
         self._last_checkpoint = wallclock.monotonic()
@@ -647,6 +650,8 @@ class Run(Hooks):
             w.coupled.base_external = coupling["base_external"].copy()
             if "mouths_open" in coupling:
                 w.coupled.mouths_open = coupling["mouths_open"]
+            if "void_initial_aperture" in coupling:  # closure_storage's reference state
+                w.coupled.void_initial_aperture = coupling["void_initial_aperture"]
             w.coupled.history = CoupledHistory(
                 **{k: v.tolist() for k, v in records["fluid/history"].items()})
             s.loads.external[...] = loads["external"]

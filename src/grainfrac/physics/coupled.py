@@ -217,6 +217,17 @@ class HydroMechanicalSolver:
             return aperture, aperture
         return aperture, flow.pore_aperture(opening, self.fluid, bonded, self._void_a0)
 
+    @property
+    def void_initial_aperture(self) -> np.ndarray | None:
+        """Per sub-contact a0 of the void under ``fluid.closure_storage`` (m; None
+        without it): what a checkpoint keeps of the reference state."""
+        return None if self._void_a0 is None else self._void_a0.copy()
+
+    @void_initial_aperture.setter
+    def void_initial_aperture(self, a0: np.ndarray) -> None:
+        self._void_a0 = np.array(a0, dtype=float)
+        self._pores = None
+
     def _set_closure_reference(self) -> None:
         """With ``fluid.closure_storage``: each void's a0 from the faces' current opening.
 

@@ -53,6 +53,11 @@ class FluidSpec(StrictModel):
     broken_residual_aperture_m: float | None = Field(
         None, gt=0, description="lower bound of the aperture of broken and fissured grain "
         "boundaries [m]; default: residual_aperture_m (paper: one a_res for all)")
+    closure_storage: bool = Field(
+        False, description="the void of a broken grain boundary pressed past its residual "
+        "aperture follows its faces as they part, from where they were when the fluid "
+        "coupling began (the conductance keeps the aperture law); false: the paper's "
+        "law, which holds that void at the residual aperture")
     permeable_sides: list[str] = Field(
         default_factory=lambda: list(SPECIMEN_SIDES["slab"]),
         description="specimen sides held at boundary_pressure_MPa",
@@ -112,6 +117,7 @@ class FluidSpec(StrictModel):
             residual_aperture=a_res,
             maximum_aperture=self.maximum_aperture_m,
             broken_residual_aperture=self.broken_residual_aperture_m,
+            closure_storage=self.closure_storage,
         )
 
     def fixed_pressures(self, dimension: int = 2) -> dict[str, float]:
