@@ -93,8 +93,7 @@ class PoreSprings:
     into the per-pore arrays), ``lower`` each sub-contact's smallest aperture,
     ``initial_aperture`` the a0 of its void (one for all, or one each); per pore,
     ``held_void`` (m3), ``storage`` (m3/Pa) and ``ceiling`` (Pa), the most pressure it
-    may reach. See
-    :func:`grainfrac.physics.kernels.pore_spring_pressure`.
+    may reach. See :func:`grainfrac.physics.kernels.pore_spring_pressure`.
     """
 
     contact: np.ndarray

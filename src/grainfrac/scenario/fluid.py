@@ -54,7 +54,7 @@ class FluidSpec(StrictModel):
         None, gt=0, description="lower bound of the aperture of broken and fissured grain "
         "boundaries [m]; default: residual_aperture_m (paper: one a_res for all)")
     closure_storage: bool = Field(
-        False, description="the void of a broken grain boundary pressed past its residual "
+        False, description="the void of a grain boundary pressed past its residual "
         "aperture follows its faces as they part, from where they were when the fluid "
         "coupling began (the conductance keeps the aperture law); false: the paper's "
         "law, which holds that void at the residual aperture")
