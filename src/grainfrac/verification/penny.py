@@ -115,6 +115,9 @@ class PennyConfig(Fig8Case):
     fill_disc: bool = True
     # The plane's voids follow its faces through the confinement's closure (module doc).
     closure_storage: bool = True
+    # Fluid steps redone until the pressures fit the voids the mechanics realised
+    # (HydroMechanicalSolver fixed_stress_iterations; 0: the plain staggered step).
+    fixed_stress_iterations: int = 0
 
 
 @dataclass(frozen=True)
@@ -210,7 +213,8 @@ def penny_run(config: PennyConfig | None = None, seed: int = 0) -> PennyRun:
     network = flow.build_flow_network(
         mesh, well=True, wall="flow_knots", well_nodes=[injection],
         sealed=np.ones(mesh.n_contacts, dtype=bool), well_compressibility=1 / config.bulk_modulus)
-    hm = HydroMechanicalSolver(assembly, mech, network, fluid)
+    hm = HydroMechanicalSolver(assembly, mech, network, fluid,
+                               fixed_stress_iterations=config.fixed_stress_iterations)
     if config.fill_disc:
         _fill_disc(hm, in_disc, config)
     run = PennyRun(config, mesh.n_elements, int(on_plane.sum()),
