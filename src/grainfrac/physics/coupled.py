@@ -137,8 +137,6 @@ class HydroMechanicalSolver:
         self.assembly = assembly
         self.fixed_stress_iterations = int(fixed_stress_iterations)
         self.fixed_stress_tolerance = float(fixed_stress_tolerance)
-        # Mechanics cycles redone by the iterations (a count for the run's books).
-        self.fixed_stress_rounds = 0
         self.mechanics = mechanics
         # Every pipe, sealed grain interiors included; self.network conducts.
         self._all_pipes = network
@@ -589,8 +587,9 @@ class HydroMechanicalSolver:
         dt = n_steps * m.model.dt
         pores = self._current_pores()
         pipe_links = flow.links(self.network, pores.aperture, self.fluid)
-        start = _copy_state(self.state) if self.fixed_stress_iterations else None
-        mech_saved = m.save_state() if self.fixed_stress_iterations else None
+        iterated = self.fixed_stress_iterations > 0
+        start = _copy_state(self.state) if iterated else None
+        mech_saved = m.save_state() if iterated else None
         self._solve(self.state, pores, dt, injection_rate, pores.void_aperture,
                     pores.well_void, pipe_links)
         start_void = self.state.volume.copy()
@@ -606,7 +605,6 @@ class HydroMechanicalSolver:
                         self.well_void(), pipe_links)
             if self._split_converged(start.pressure, self.state.pressure, trial.pressure):
                 break
-            self.fixed_stress_rounds += 1
             m.restore_state(mech_saved)
             trial.volume = start_void  # the sealed pores' springs start from these voids
             self.state = trial

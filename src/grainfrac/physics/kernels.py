@@ -429,9 +429,8 @@ def pore_pressure(held_void, void, storage, ceiling, resistance, rate, dt):
 def pore_spring_pressure(u, v, dt, contacts, pores, pressure):
     """Set the fluid pressure of the listed pores from their current void.
 
-    Pore ``k``'s void is ``V = sum A max(a0 + u_n, lower)`` over its
-    sub-contacts ``pores.contact`` (``initial_aperture`` = a0, per sub-contact); its
-    pressure is
+    Pore ``k``'s void is ``V = sum A max(a0 + u_n, lower)`` over its sub-contacts
+    ``pores.contact`` (``initial_aperture`` = a0, per sub-contact); its pressure is
     ``(held_void[k] - V) / storage[k] - resistance[k] dV/dt``, at least 0 and at most
     ``ceiling[k]``: a spring of compliance ``storage`` about the void its fluid fills at
     zero pressure, and the pressure drop that draws (or drives) the fluid through the
