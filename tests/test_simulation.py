@@ -111,6 +111,21 @@ def test_closure_storage_runs_and_resumes_to_the_same_result(reference, tmp_path
     assert _comparable(resumed) == _comparable(whole)
 
 
+def test_fixed_stress_iterations_reach_the_coupling_and_resume(reference, tmp_path):
+    """``numerics.fixed_stress_iterations`` reaches the coupling (the run differs from
+    the plain step's), and killed and resumed, the iterated run ends as the
+    uninterrupted one. (The books are not closer here: -2.3 % of the pumped energy
+    against the plain step's -2.0 %, seed 3, 0.1 ms fluid steps.)"""
+    sc = _scenario(numerics={"fixed_stress_iterations": 8})
+    whole = run_scenario(sc, sc.recipe(), tmp_path / "whole")
+    plain, iterated = reference[1]["hydraulic_energy_J"], whole["hydraulic_energy_J"]
+    print(f"\nresidual / pumped: plain {plain['residual'] / plain['pumped']:+.4f}, "
+          f"iterated {iterated['residual'] / iterated['pumped']:+.4f}")
+    assert iterated != plain
+    resumed = killed_then_resumed(sc, tmp_path / "killed", "inject", 12)
+    assert _comparable(resumed) == _comparable(whole)
+
+
 def test_blow_up_names_stage_step_time_and_keeps_last_good_state(tmp_path, monkeypatch):
     original = HydroMechanicalSolver.advance
 

@@ -355,7 +355,8 @@ class Run(Hooks):
         model = build_mechanical_model(self.assembly, mass_scaling=numerics.mass_scaling)
         self.world = World(self.assembly, MechanicsSolver(model, damping=numerics.local_damping,
                                                           backend=self.backend),
-                           mass_scaling=numerics.mass_scaling)
+                           mass_scaling=numerics.mass_scaling,
+                           fixed_stress_iterations=numerics.fixed_stress_iterations)
         self.stages: list[Stage] = from_scenario(scenario, base_dir)
         self.driver = Driver(self.stages, self.world, self)
         self.record = RunRecord()

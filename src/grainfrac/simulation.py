@@ -178,7 +178,8 @@ def hydraulic_energy_warnings(energy: dict[str, float]) -> list[str]:
     return [f"the coupling made {made:.3g} J of fluid energy ({made / energy['pumped']:.0%} of "
             f"the {energy['pumped']:.3g} J pumped into the well: {energy['on_grains']:.3g} J "
             f"of work on the grains, {energy['viscous']:.3g} J viscous, "
-            f"{energy['stored']:.3g} J stored); compare with a smaller inject time_step_ms"]
+            f"{energy['stored']:.3g} J stored); compare with a smaller inject time_step_ms or "
+            "with numerics.fixed_stress_iterations = 8"]
 
 
 def _plot_final_fields(run: Run, figures: Path) -> None:

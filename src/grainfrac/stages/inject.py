@@ -34,7 +34,8 @@ def couple_fluid(world: World, fluid: FluidSpec) -> HydroMechanicalSolver:
         sealed=assembly.contact_intragranular, wall=fluid.well_wall,
     )
     a0 = assembly.recipe.hydraulic.initial_aperture_m
-    return HydroMechanicalSolver(assembly, world.solver, network, fluid.properties(a0))
+    return HydroMechanicalSolver(assembly, world.solver, network, fluid.properties(a0),
+                                 fixed_stress_iterations=world.fixed_stress_iterations)
 
 
 def fracture_at_boundary(world: World) -> bool:

@@ -27,7 +27,8 @@ class World:
 
     ``model_kind`` is ``"rock"`` or ``"scda"`` (plug in the borehole);
     ``injection_start_time`` (s) is when the fluid was first injected;
-    ``mass_scaling`` is the run's (:class:`grainfrac.scenario.NumericsSpec`).
+    ``mass_scaling`` and ``fixed_stress_iterations`` are the run's
+    (:class:`grainfrac.scenario.NumericsSpec`).
     """
 
     assembly: GrainAssembly
@@ -39,6 +40,7 @@ class World:
     scda_fill: scda.ScdaFill | None = None
     scda_model: MechanicalModel | None = None
     mass_scaling: float = 1.0  # fraction of the added mass kept (the plug's model too)
+    fixed_stress_iterations: int = 0  # of the fluid coupling (HydroMechanicalSolver)
 
     def __post_init__(self) -> None:
         self.rock_model = self.solver.model
