@@ -180,8 +180,8 @@ def verify(
     zone_size: Annotated[float | None, typer.Option(
         "--zone-size", min=0.5, max=10.0,
         help="Zone size of the case's mesh (mm), for the cases built on one zone size "
-             "(kirsch, lame, patch3d, lame3d, kirsch3d, kirsch3d-plane-strain); default: "
-             "the case's own.")] = None,
+             "(kirsch, lame, patch3d, lame3d, kirsch3d, kirsch3d-plane-strain, penny); "
+             "default: the case's own.")] = None,
     wall_zone_size: Annotated[float | None, typer.Option(
         "--wall-zone-size", min=0.2, max=10.0,
         help="Zone size on the borehole wall (mm), refined over 5 mm beside it "
