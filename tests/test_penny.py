@@ -1,15 +1,16 @@
-"""``grainfrac verify penny``: the penny-shaped hydraulic fracture in 3D (slow: about a
-minute at 4 mm zones; the verification case itself runs at 2 mm).
+"""``grainfrac verify penny``: the penny-shaped hydraulic fracture in 3D (slow: about two
+minutes at 4 mm zones; the verification case itself runs at 1 mm).
 
-What holds at 4 mm zones (measured on seed 0): the opening at the injection point
-within 15 % of the M-vertex at 1, 2 and 4 ms (-12.9 / -14.3 / -13.0 %), the net pressure
-at half the radius within 10 % at 2 ms (+4.2 %), the fluid volume balance to round-off,
-no open dry rim ahead of the fluid, off the plane no faces apart by more than 1.5 % of
-the opening at the well (their elastic relief from the confinement reaches 13 %), and
-the fluid's books within 5 % of the pumped energy (-2.3 % at 4 ms; -20.5 % with voids
-that stay at the 3 um floor while the confinement's 10 um closure is undone,
+What holds at 4 mm zones with the case's iterated step (measured on seed 0): the
+opening at the injection point within 15 % of the M-vertex at 1, 2 and 4 ms (-13.3 /
+-14.6 / -13.3 %), the net pressure at half the radius within 10 % at 2 ms (+0.6 %), the
+fluid volume balance to round-off, no open dry rim ahead of the fluid, off the plane no
+faces apart by more than twice the case's tolerance (1.6 %; their elastic relief from
+the confinement reaches 13 % of the opening), and the fluid's books within 5 %
+of the pumped energy (-0.1 % at 4 ms; -2.3 % with the plain step, -20.5 % with voids that
+stay at the 3 um floor while the confinement's 10 um closure is undone,
 ``closure_storage`` off). What does not: the radius, +19.8 / +11.9 / +5.3 % at these
-coarse zones (the case's rows are at 2 mm).
+coarse zones (the case's rows are at 1 mm).
 """
 
 from __future__ import annotations
@@ -75,8 +76,12 @@ def test_nothing_opens_off_the_plane(coarse):
     """Off-plane faces stay pressed together: their largest separation is a small
     fraction of the opening at the well, though the confinement's relief moves them.
     At these 4 mm zones the bonded vertical faces that meet the open plane come apart
-    by up to 1.5 % (measured, seed 0; 0.6 % at the case's 2 mm zones, within
-    ``OFF_PLANE_FRACTION``), so the test allows twice the case's tolerance."""
+    by up to 1.6 % and the relief reaches 13 % (measured, seed 0, iterated step; within
+    ``OFF_PLANE_FRACTION`` at the case's 1 and 2 mm zones), so the test allows twice
+    the case's tolerance."""
+    ratio = max(s.max_off_plane_opening / s.opening_well for s in coarse.states)
+    relief = max(s.off_plane_relief for s in coarse.states) / coarse.states[-1].opening_well
+    print(f"\noff the plane: separation / opening at the well {ratio:.4f}, relief {relief:.3f}")
     for s in coarse.states:
         assert 0.0 <= s.max_off_plane_opening < 2 * OFF_PLANE_FRACTION * s.opening_well
-    assert max(s.off_plane_relief for s in coarse.states) > 0.05 * coarse.states[-1].opening_well
+    assert relief > 0.05

@@ -39,8 +39,8 @@ FAST_CASES = (("kirsch",), ("lame",), ("cubic-law",))
 KGD_CASES = (("kgd",), ("kgd-toughness",))
 # The 3D cases; kirsch3d at its 2 mm zones and with 1 mm zones at the wall, and in
 # plane strain (the discretisation alone) with 0.8 mm zones at the wall; the penny at
-# its 1 mm zones and at the paper's 2 mm (its radius at 1 ms is read off rings of
-# grain faces a zone wide: decision record 0018).
+# its 1 mm zones and at 2 mm, the zones of the paper's grain models (its radius at 1 ms
+# is read off rings of grain faces a zone wide: decision record 0018).
 CASES_3D = (("kirsch3d-plane-strain", "--wall-zone-size", "0.8"),
             ("kirsch3d", "--wall-zone-size", "1"), ("kirsch3d",),
             ("penny", "--zone-size", "1"), ("penny", "--zone-size", "2"),

@@ -277,7 +277,7 @@ def penny(seed: int = 0, *, zone_size_mm: float | None = None,
     """The penny-shaped fracture against the M-vertex (module doc): radius, opening at the
     well and net pressure at half the radius at 1, 2 and 4 ms; off-plane opening, volume
     balance and the fluid's energy books. ``zone_size_mm`` (``--zone-size``) replaces the
-    config's zone size (default 1 mm; about 30 min on two threads, 2 mm about 3 min)."""
+    config's zone size (default 1 mm; about 30 min on two threads; 2 mm about 4 min)."""
     config = config or PennyConfig()
     if zone_size_mm is not None:
         config = replace(config, zone_size=zone_size_mm * MM)
