@@ -86,6 +86,10 @@ def main(argv: list[str] | None = None) -> int:
     print(f"breakdown {'-' if bd is None else f'{bd:.3f} MPa'}, "
           f"{summary['n_cracks']} cracks, radial fractures top/mid "
           f"{summary.get('n_radial_fractures_top')}/{summary.get('n_radial_fractures_mid')}")
+    books = summary.get("hydraulic_energy_J")
+    if books:
+        print(f"fluid energy books: residual {books['residual'] / books['pumped']:+.2%} of "
+              f"the {books['pumped']:.4g} J pumped")
     split = dict(clock.seconds)
     split["coupling and host"] = wall - sum(split.values())
     print("time split:")
