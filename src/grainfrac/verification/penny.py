@@ -98,7 +98,7 @@ class PennyConfig(Fig8Case):
     """The Fig. 8 case, its grains and its stepping (SI)."""
 
     # 1 mm: at 2 mm zones the radius at 1 ms, 1.5 zones past the cut disc, is read off
-    # rings of grain faces that open a zone at a time (+3 to +16 % over 0.8-1.2 ms,
+    # rings of grain faces that open a zone at a time (+7 to +16 % over 0.8-1.2 ms,
     # seed 0; decision record 0018); the paper does not state its penny model's zones.
     zone_size: float = 1 * MM
     grain_edges: tuple[float, float] = (3 * MM, 8 * MM)
