@@ -1,5 +1,5 @@
-"""``grainfrac verify penny``: the penny-shaped hydraulic fracture in 3D (slow: about two
-minutes at 4 mm zones; the verification case itself runs at 1 mm).
+"""``grainfrac verify penny``: the penny-shaped hydraulic fracture in 3D (slow: about 75 s
+at 4 mm zones; the verification case itself runs at 1 mm).
 
 What holds at 4 mm zones with the case's iterated step (measured on seed 0): the
 opening at the injection point within 15 % of the M-vertex at 1, 2 and 4 ms (-13.3 /
