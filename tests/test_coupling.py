@@ -157,9 +157,9 @@ def _spoil_content(monkeypatch, node_of, extra_pressure: float, every_attempt: b
     calls = []
     original = HydroMechanicalSolver._step
 
-    def step(self, dt, rate):
+    def step(self, dt, rate, *start):
         calls.append(dt)
-        original(self, dt, rate)
+        original(self, dt, rate, *start)
         if every_attempt or len(calls) == 1:
             node = node_of(self)
             c = (self.network.well_compressibility if node == self.network.well_unknown
@@ -226,9 +226,9 @@ def test_rejected_step_is_undone_and_halved(coupled, monkeypatch):
     calls = []
     original = HydroMechanicalSolver._step
 
-    def step(self, dt, rate):
+    def step(self, dt, rate, *start):
         calls.append(dt)
-        original(self, dt, rate)
+        original(self, dt, rate, *start)
         if len(calls) == 1:  # spoil the first attempt
             self.state.content[np.flatnonzero(~self.network.fixed)[0]] = -1.0
 

@@ -585,9 +585,9 @@ class Run(Hooks):
             records["fluid/coupling"] = {"base_external": w.coupled.base_external}
             if w.coupled.mouths_open is not None:
                 records["fluid/coupling"]["mouths_open"] = w.coupled.mouths_open
-            if w.coupled.void_initial_aperture is not None:
-                records["fluid/coupling"]["void_initial_aperture"] = \
-                    w.coupled.void_initial_aperture
+            void_a0 = w.coupled.void_initial_aperture  # a copy: read it once
+            if void_a0 is not None:
+                records["fluid/coupling"]["void_initial_aperture"] = void_a0
         write_checkpoint(self.checkpoint_path, records)
         self.write_history()
         self._last_checkpoint = wallclock.monotonic()

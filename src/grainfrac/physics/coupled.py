@@ -501,7 +501,7 @@ class HydroMechanicalSolver:
         fluid_saved = _copy_state(self.state)
         jump = math.inf
         try:
-            self._step(dt, injection_rate)
+            self._step(dt, injection_rate, fluid_saved, mech_saved)
             jump, well_jump, content_ok = self._step_check(fluid_saved.pressure)
             # A jump that halving the step hardly shrinks is not a matter of time
             # resolution (a crack-tip node opening and closing): accept it, but
@@ -573,10 +573,13 @@ class HydroMechanicalSolver:
                                          shared, self.well_void()))
         return self._pores[1]
 
-    def _step(self, dt: float, injection_rate: float) -> None:
+    def _step(self, dt: float, injection_rate: float, start: flow.FluidState,
+              mech_start: dict) -> None:
         """One fluid step: the pressure solve, then the mechanics at those pressures; with
-        ``fixed_stress_iterations``, again while the pressures solved from the voids the
-        mechanics realised move by more than :meth:`_split_converged` allows."""
+        ``fixed_stress_iterations``, again from ``mech_start`` while the pressures solved
+        from the voids the mechanics realised move by more than :meth:`_split_converged`
+        allows. ``start`` and ``mech_start`` are the caller's copies of the fluid and
+        mechanical states the step begins from (only read here)."""
         m = self.mechanics
         # The mechanics can only advance whole steps of its own: the fluid step is
         # the time it does advance, so the well gets rate x the simulated time.
@@ -587,12 +590,10 @@ class HydroMechanicalSolver:
         dt = n_steps * m.model.dt
         pores = self._current_pores()
         pipe_links = flow.links(self.network, pores.aperture, self.fluid)
-        iterated = self.fixed_stress_iterations > 0
-        start = _copy_state(self.state) if iterated else None
-        mech_saved = m.save_state() if iterated else None
         self._solve(self.state, pores, dt, injection_rate, pores.void_aperture,
                     pores.well_void, pipe_links)
-        start_void = self.state.volume.copy()
+        # implicit_step rebinds a state's volume and never writes into it: no copy.
+        start_void = self.state.volume
         for iteration in range(self.fixed_stress_iterations + 1):
             self._mechanics_cycle(dt, n_steps, pipe_links)
             if iteration == self.fixed_stress_iterations:
@@ -605,7 +606,7 @@ class HydroMechanicalSolver:
                         self.well_void(), pipe_links)
             if self._split_converged(start.pressure, self.state.pressure, trial.pressure):
                 break
-            m.restore_state(mech_saved)
+            m.restore_state(mech_start)
             trial.volume = start_void  # the sealed pores' springs start from these voids
             self.state = trial
 
