@@ -354,18 +354,12 @@ def kirsch3d(sigma_x: float = CASE2[0], sigma_y: float = CASE2[1], sigma_z: floa
       the same centroids. Only radii with (k + 1) a inside the slab's half-width
       are compared (all three on the default slab).
 
-    Measured (seed 0, 2 mm zones), wall 0 / 90 deg: 40 mm slab 6 mm thick:
-    +4.9 % / -2.7 %; 40 x 4 mm: +1.4 % / -1.8 %; 30 x 4 mm: +9.6 % / -15 %
-    (b = 3 a). On 40 mm slabs the 2a bands are within 5 % and 4a at 90 deg is
-    off by +33 % (the band touches the sides): the decay needs the full slab. Default
-    slab in plane strain: wall 0 / 90 deg -6.1 % / +20 % (the cos 2 theta amplitude 13 %
-    low, the mean within 1.7 %), decay bands within 1.3 %; at 1.4 mm zones -2.0 % /
-    +14.5 % (amplitude 6.1 % low: second order in the zone size). Default slab with free
-    top and bottom: -3.8 % / +18.5 % at 2 mm zones (-5.2 % / +15.9 % on the plain
-    mesh), -0.9 % / +9.4 % at 1.4 mm (plain), decay bands within 2.4 %. At 90 deg
-    the hoop stress is the mean (-7.5 MPa) plus the amplitude (5 MPa), so the
-    amplitude's error counts twice there. Over seeds 0-3 the 2 mm wall at 90 deg reads
-    +13 to +22 %; the wall needs about 1 mm zones (decision record 0023).
+    Accuracy: at 90 deg the hoop stress is the mean (-7.5 MPa) plus the cos 2 theta
+    amplitude (5 MPa), so the amplitude's error, second order in the zone size, counts
+    twice there. At 2 mm zones the wall reads 13-22 % off at 90 deg (seeds 0-3); with
+    1 mm zones at the wall, within 1.3 % (seed 0). The decay bands need the full slab
+    (on 40 mm slabs the 4a band at 90 deg touches the sides). Measured figures: the
+    how-to "Run in 3D", section "Verification in 3D", and decision record 0023.
     """
     assembly = homogeneous_slab3d(width_mm, width_mm, thickness_mm, borehole_diameter_mm,
                                   seed=seed, zone_size_mm=zone_size_mm,
