@@ -93,7 +93,8 @@ def test_lame3d_small_slab():
 def test_kirsch3d_small_slab_wall():
     # 40 mm slab (b = 4 a): the decay bands feel the outer boundary (30 mm: the wall
     # at 90 deg is 15 % off), so only the wall values are checked here.
-    rows = {c.quantity: c for c in kirsch3d(width_mm=40.0, thickness_mm=4.0)}
+    rows = {c.quantity: c for c in kirsch3d(width_mm=40.0, thickness_mm=4.0,
+                                            wall_zone_size_mm=2.0)}
     for c in rows.values():
         print(c.as_row())
     assert rows["hoop_stress_wall_0deg_MPa"].passed
@@ -104,7 +105,7 @@ def test_kirsch3d_plane_strain_small_slab_wall():
     # Rollers on the top and bottom: Kirsch is exact at every height, so the wall rows
     # measure the discretisation alone (40 x 4 mm: 0 deg +1.2 %, 90 deg -0.7 %).
     rows = {c.quantity: c for c in kirsch3d(width_mm=40.0, thickness_mm=4.0,
-                                            plane_strain=True)}
+                                            wall_zone_size_mm=2.0, plane_strain=True)}
     for c in rows.values():
         print(c.as_row())
         assert c.case == "kirsch3d-plane-strain"

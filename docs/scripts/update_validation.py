@@ -42,7 +42,7 @@ KGD_CASES = (("kgd",), ("kgd-toughness",))
 # its 1 mm zones and at 2 mm, the zones of the paper's grain models (its radius at 1 ms
 # is read off rings of grain faces a zone wide: decision record 0018).
 CASES_3D = (("kirsch3d-plane-strain", "--wall-zone-size", "0.8"),
-            ("kirsch3d", "--wall-zone-size", "1"), ("kirsch3d",),
+            ("kirsch3d",), ("kirsch3d", "--wall-zone-size", "2"),
             ("penny", "--zone-size", "1"), ("penny", "--zone-size", "2"),
             ("lame3d",), ("patch3d",), ("cubic-law3d",))
 ALL_CASES = {*FAST_CASES, *KGD_CASES, *CASES_3D}

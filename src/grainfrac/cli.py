@@ -185,7 +185,8 @@ def verify(
     wall_zone_size: Annotated[float | None, typer.Option(
         "--wall-zone-size", min=0.2, max=10.0,
         help="Zone size on the borehole wall (mm), refined over 5 mm beside it "
-             "(kirsch3d, kirsch3d-plane-strain); default: the zone size.")] = None,
+             "(kirsch3d, kirsch3d-plane-strain); default: kirsch3d 1 mm (or the zone "
+             "size if finer), kirsch3d-plane-strain the zone size.")] = None,
 ) -> None:
     """Compare a simulation with its analytical solution; exit 1 if any quantity fails."""
     import inspect

@@ -70,6 +70,9 @@ KIRSCH3D_DECAY_TOLERANCE = 0.05
 
 #: Paper Table 6 case 2 (compressive Pa).
 CASE2 = (2.5e6, 5.0e6, 1.0e6)
+#: ``kirsch3d``'s zone size on the borehole wall (mm) unless told: the linear
+#: tetrahedron needs about 1 mm there for the wall rows (decision record 0023).
+KIRSCH3D_WALL_ZONE_MM = 1.0
 
 _SUBDIVISIONS = 15  # per triangle side, for the area averages of the Fourier basis
 
@@ -333,15 +336,17 @@ def kirsch3d(sigma_x: float = CASE2[0], sigma_y: float = CASE2[1], sigma_z: floa
     (Sternberg & Sadowsky 1949: a few percent on the mid-plane for a thickness of
     a few radii) is part of the measured error.
 
-    ``wall_zone_size_mm`` (``--wall-zone-size``) refines the zones at the borehole wall
-    (:class:`~grainfrac.geometry.zone_sizes.ZoneSizes`); the wall rows then read the
-    triangles within one wall zone of the mid-plane.
+    ``wall_zone_size_mm`` (``--wall-zone-size``) is the zone size at the borehole wall
+    (:class:`~grainfrac.geometry.zone_sizes.ZoneSizes`): by default
+    :data:`KIRSCH3D_WALL_ZONE_MM` (1 mm), or the zone size if that is finer; the zone
+    size itself leaves the wall unrefined. The wall rows read the triangles within one
+    wall zone of the mid-plane.
 
     With ``plane_strain`` (``grainfrac verify kirsch3d-plane-strain``) the top and
     bottom faces are rollers (their nodes held along z, ``sigma_z`` not applied):
     the slab is then in plane strain, where Kirsch is the exact solution at every
     height, so the rows measure the discretisation alone (case name
-    ``kirsch3d-plane-strain``).
+    ``kirsch3d-plane-strain``; its wall is unrefined unless told).
 
     Compared:
 
@@ -356,11 +361,13 @@ def kirsch3d(sigma_x: float = CASE2[0], sigma_y: float = CASE2[1], sigma_z: floa
 
     Accuracy: at 90 deg the hoop stress is the mean (-7.5 MPa) plus the cos 2 theta
     amplitude (5 MPa), so the amplitude's error, second order in the zone size, counts
-    twice there. At 2 mm zones the wall reads 13-22 % off at 90 deg (seeds 0-3); with
-    1 mm zones at the wall, within 1.3 % (seed 0). The decay bands need the full slab
+    twice there. At 2 mm zones throughout the wall reads 13-22 % off at 90 deg (seeds
+    0-3); with 1 mm zones at the wall, within 2.3 %. The decay bands need the full slab
     (on 40 mm slabs the 4a band at 90 deg touches the sides). Measured figures: the
     how-to "Run in 3D", section "Verification in 3D", and decision record 0023.
     """
+    if wall_zone_size_mm is None:
+        wall_zone_size_mm = min(KIRSCH3D_WALL_ZONE_MM, zone_size_mm)
     assembly = homogeneous_slab3d(width_mm, width_mm, thickness_mm, borehole_diameter_mm,
                                   seed=seed, zone_size_mm=zone_size_mm,
                                   wall_zone_size_mm=wall_zone_size_mm)
@@ -396,6 +403,8 @@ def kirsch3d(sigma_x: float = CASE2[0], sigma_y: float = CASE2[1], sigma_z: floa
 def kirsch3d_plane_strain(seed: int = 0, *, zone_size_mm: float = 2.0,
                           wall_zone_size_mm: float | None = None, **options
                           ) -> list[Comparison]:
-    """:func:`kirsch3d` with rollers on the top and bottom faces (plane strain)."""
-    return kirsch3d(seed=seed, zone_size_mm=zone_size_mm, wall_zone_size_mm=wall_zone_size_mm,
-                    plane_strain=True, **options)
+    """:func:`kirsch3d` with rollers on the top and bottom faces (plane strain); the wall
+    is meshed at the zone size unless ``wall_zone_size_mm`` is given."""
+    return kirsch3d(seed=seed, zone_size_mm=zone_size_mm,
+                    wall_zone_size_mm=wall_zone_size_mm or zone_size_mm, plane_strain=True,
+                    **options)
