@@ -90,6 +90,28 @@ def test_lame3d_small_slab():
     assert row.passed
 
 
+class _Built(Exception):
+    """Stops a verification case once its slab's zone sizes are known."""
+
+
+@pytest.mark.parametrize(("call", "zones", "wall"), [
+    (lambda: kirsch3d(), 2.0, 1.0),  # the wall refined to 1 mm (decision record 0023)
+    (lambda: kirsch3d(zone_size_mm=0.8), 0.8, 0.8),  # never coarser than the zones
+    (lambda: kirsch3d(wall_zone_size_mm=2.0), 2.0, 2.0),  # unrefined when told
+    (lambda: CASES["kirsch3d-plane-strain"](), 2.0, 2.0),  # plane strain: unrefined
+])
+def test_kirsch3d_wall_zone_size_defaults(monkeypatch, call, zones, wall):
+    from grainfrac.verification import elastic3d
+
+    def record(*args, zone_size_mm, wall_zone_size_mm, **kwargs):
+        raise _Built(zone_size_mm, wall_zone_size_mm)
+
+    monkeypatch.setattr(elastic3d, "homogeneous_slab3d", record)
+    with pytest.raises(_Built) as built:
+        call()
+    assert built.value.args == (zones, wall)
+
+
 def test_kirsch3d_small_slab_wall():
     # 40 mm slab (b = 4 a): the decay bands feel the outer boundary (30 mm: the wall
     # at 90 deg is 15 % off), so only the wall values are checked here.
