@@ -17,6 +17,13 @@ first factorisation).
 issue's "no part other than the mechanics takes over half" is read from its shares.
 The contacts are stepped inside ``mechanics.cycle`` (one kernel with the elements).
 
+``--mechanics-steps K`` runs only ``K`` explicit steps per coupled step (the fluid step's
+time still flows into the well): what is left is the host's share of a coupled step,
+the work a GPU run does on the host while the device does the mechanics. With
+``--in-situ-steps`` capping the equilibration (the 100 mm cube's takes hours on two
+cores) and ``--profile`` printing where that host time goes, it measures the host
+work per fluid step of the cube's network without a GPU.
+
 ``--first-step SCENARIO`` times instead the first injection step's pressure solve of a
 scenario's specimen (the whole network conducting at the initial aperture, no
 mechanics) three ways: conjugate gradients started from zero (the code's solve from
@@ -29,12 +36,16 @@ Usage::
     python benchmarks/pressure_solve.py --steps 200 --dt 1e-5
     python benchmarks/pressure_solve.py --dim 3 --width-mm 100 --thickness-mm 20 --steps 50
     python benchmarks/pressure_solve.py --first-step examples/3d/hybrid-case3-cube.toml
+    python benchmarks/pressure_solve.py --dim 3 --width-mm 100 --thickness-mm 100 \
+        --case case3 --in-situ-steps 300 --mechanics-steps 1 --steps 20 --profile 25
 """
 
 from __future__ import annotations
 
 import argparse
+import cProfile
 import math
+import pstats
 import sys
 import time
 from pathlib import Path
@@ -54,7 +65,8 @@ from grainfrac.units import ML_PER_MIN, MPA
 
 
 def build_solver(seed: int, case: str, dim: int = 2, width_mm: float = 100.0,
-                 thickness_mm: float = 20.0) -> HydroMechanicalSolver:
+                 thickness_mm: float = 20.0, in_situ_steps: int = 200_000
+                 ) -> HydroMechanicalSolver:
     spec = {"seed": seed}
     sides = ("left", "right", "top", "bottom")
     if dim == 3:
@@ -67,15 +79,19 @@ def build_solver(seed: int, case: str, dim: int = 2, width_mm: float = 100.0,
     mechanics = MechanicsSolver(build_mechanical_model(assembly))
     sx, sy, sz = STRESS_CASES[case]
     initialise_in_situ(mechanics, assembly.mesh, sx * MPA, sy * MPA,
-                       sz * MPA if dim == 3 else 0.0)
+                       sz * MPA if dim == 3 else 0.0, max_steps=in_situ_steps)
     network = flow.build_flow_network(assembly.mesh, permeable_sides=dict.fromkeys(sides, 0.0),
                                       well=True, wall="sealed")
     return HydroMechanicalSolver(assembly, mechanics, network, flow.FluidProperties())
 
 
-def timed_run(solver: HydroMechanicalSolver, steps: int, dt: float,
-              rate: float) -> dict[str, float]:
-    """Advance ``steps`` times; return wall seconds in the flow solve, the mechanics, in all."""
+def timed_run(solver: HydroMechanicalSolver, steps: int, dt: float, rate: float,
+              mechanics_steps: int | None = None,
+              profile: cProfile.Profile | None = None) -> dict[str, float]:
+    """Advance ``steps`` times; return wall seconds in the flow solve, the mechanics, in all.
+
+    ``mechanics_steps``: at most this many explicit steps per coupled step.
+    ``profile``: enabled around the timed steps."""
     times = {"flow": 0.0, "mechanics": 0.0, "total": 0.0}
     original_step = flow.implicit_step
     original_cycle = solver.mechanics.cycle
@@ -90,18 +106,23 @@ def timed_run(solver: HydroMechanicalSolver, steps: int, dt: float,
     def timed_cycle(*args, **kwargs):
         start = time.perf_counter()
         try:
-            return original_cycle(*args, **kwargs)
+            n = args[0] if mechanics_steps is None else min(args[0], mechanics_steps)
+            return original_cycle(n, *args[1:], **kwargs)
         finally:
             times["mechanics"] += time.perf_counter() - start
 
     flow.implicit_step = timed_step
     solver.mechanics.cycle = timed_cycle
     try:
+        if profile is not None:
+            profile.enable()
         start = time.perf_counter()
         for _ in range(steps):
             solver.advance(dt, rate)
         times["total"] = time.perf_counter() - start
     finally:
+        if profile is not None:
+            profile.disable()
         flow.implicit_step = original_step
         del solver.mechanics.cycle
     return times
@@ -154,19 +175,29 @@ def main(argv: list[str] | None = None) -> int:
                         help="3D slab thickness (mm)")
     parser.add_argument("--first-step", type=Path, default=None, metavar="SCENARIO",
                         help="time the first pressure solve of this scenario's specimen")
+    parser.add_argument("--in-situ-steps", type=int, default=200_000,
+                        help="at most this many steps of in-situ equilibration")
+    parser.add_argument("--mechanics-steps", type=int, default=None,
+                        help="at most this many explicit steps per coupled step (host share)")
+    parser.add_argument("--profile", type=int, default=0, metavar="N",
+                        help="print the N functions of most own time in the timed steps")
     args = parser.parse_args(argv)
     if args.steps < 1:
         parser.error("--steps must be >= 1")
+    if args.mechanics_steps is not None and args.mechanics_steps < 1:
+        parser.error("--mechanics-steps must be >= 1")
     if args.first_step is not None:
         return first_step(args.first_step, args.rate, args.dt)
 
     start = time.perf_counter()
-    solver = build_solver(args.seed, args.case, args.dim, args.width_mm, args.thickness_mm)
+    solver = build_solver(args.seed, args.case, args.dim, args.width_mm, args.thickness_mm,
+                          args.in_situ_steps)
     setup = time.perf_counter() - start
     rate = args.rate * ML_PER_MIN
     for _ in range(args.warmup):
         solver.advance(args.dt, rate)
-    times = timed_run(solver, args.steps, args.dt, rate)
+    profile = cProfile.Profile() if args.profile else None
+    times = timed_run(solver, args.steps, args.dt, rate, args.mechanics_steps, profile)
 
     m = solver.mechanics
     substeps = max(1, math.ceil(args.dt / m.model.dt))
@@ -178,6 +209,8 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{what}, seed {args.seed}, {args.case}, {args.rate:g} ml/min: "
           f"{solver.network.n_unknowns} pressure unknowns, {m.model.n_nodes} nodes, "
           f"{m.model.n_contacts} sub-contacts; setup (build + in-situ) {setup:.2f} s")
+    if args.mechanics_steps is not None:
+        substeps = min(substeps, args.mechanics_steps)
     print(f"{args.steps} coupled steps of {args.dt:g} s ({substeps} mechanics steps of "
           f"{m.model.dt:.3g} s each): {total:.3f} s wall, "
           f"{1e3 * total / args.steps:.2f} ms per step")
@@ -189,6 +222,8 @@ def main(argv: list[str] | None = None) -> int:
           f"{100 * other / total:>8.1f}%")
     print(f"state after: well pressure {solver.well_pressure / MPA:.3f} MPa, "
           f"{len(m.cracks.contact)} cracks")
+    if profile is not None:
+        pstats.Stats(profile).sort_stats("tottime").print_stats(args.profile)
     return 0
 
 

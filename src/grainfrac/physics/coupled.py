@@ -20,6 +20,7 @@ import scipy.sparse as sp
 from grainfrac.assembly import GrainAssembly
 from grainfrac.loading.boundary import normal_pressure_forces
 from grainfrac.physics import flow
+from grainfrac.physics.coupling_kernels import on_loose_grain
 from grainfrac.physics.kinematics import contact_opening
 from grainfrac.physics.solver import (
     MechanicsSolver,
@@ -177,6 +178,8 @@ class HydroMechanicalSolver:
         self._n_grains = int(self._contact_grains.max()) + 1
         self.history = CoupledHistory()
         self.rejected_steps = 0
+        # The mechanical state saved before the last fluid step, reused by the next one.
+        self._spare_save: dict | None = None
         # The pores at the end of the last checked step, keyed by the mechanics' step
         # count: the next step starts from the same mechanical state.
         self._pores: tuple[int, _Pores] | None = None
@@ -277,10 +280,13 @@ class HydroMechanicalSolver:
 
     def _apply_pressure(self) -> None:
         self.mechanics.contact_pressure[:] = self.state.pressure[self.network.contact_unknown]
-        external = self.base_external.copy()
-        if self.well_unit_forces is not None:
-            external += self.well_pressure * self.well_unit_forces
-        self.mechanics.loads.external[:] = external
+        # In place, without node-sized temporaries; p f + base is base + p f to the bit.
+        external = self.mechanics.loads.external
+        if self.well_unit_forces is None:
+            external[...] = self.base_external
+        else:
+            np.multiply(self.well_pressure, self.well_unit_forces, out=external)
+            external += self.base_external
 
     def pore_compliance(self, cracks: _OpenCracks | None = None) -> np.ndarray:
         """Opening compliance at fixed total stress per unknown (m3/Pa): sum of A dw/dp.
@@ -423,11 +429,8 @@ class HydroMechanicalSolver:
 
     def _on_loose_grain(self, bonded: np.ndarray) -> np.ndarray:
         """Sub-contacts on the boundary of a grain that has no bonded boundary left."""
-        pairs = self._contact_grains
-        held = np.zeros(self._n_grains, dtype=bool)
-        held[pairs[bonded, 0]] = True
-        held[pairs[bonded, 1]] = True
-        return ~held[pairs[:, 0]] | ~held[pairs[:, 1]]
+        return on_loose_grain(self._contact_grains, np.asarray(bonded, dtype=bool),
+                              self._n_grains)
 
     def _open_cracks(self) -> _OpenCracks:
         """The sub-contacts that open against the grains under the next pressure rise
@@ -496,7 +499,11 @@ class HydroMechanicalSolver:
     def _advance_controlled(self, dt: float, injection_rate: float, depth: int,
                             parent_jump: float = math.inf, *,
                             crack_free_above: float = math.inf) -> None:
-        mech_saved = self.mechanics.save_state()
+        # The top level's save is written over by the next step's (recursion below
+        # it makes saves of its own while this one is still needed).
+        mech_saved = self.mechanics.save_state(self._spare_save if depth == 0 else None)
+        if depth == 0:
+            self._spare_save = mech_saved
         n_cracks = len(self.mechanics.cracks.contact)
         fluid_saved = _copy_state(self.state)
         jump = math.inf

@@ -42,6 +42,7 @@ import scipy.sparse as sp
 
 from grainfrac.geometry.meshing import GrainMesh
 from grainfrac.physics import pressure_system
+from grainfrac.physics.coupling_kernels import mean_hydraulic_apertures
 
 #: How the borehole wall meets the grain boundaries that end on it
 #: (:func:`build_flow_network`).
@@ -404,10 +405,9 @@ def pipe_conductance(network: FlowNetwork, aperture: np.ndarray,
     """Cubic-law conductance (m3 / (s Pa)) of each pipe that joins two unknowns, from
     the pore apertures capped at a_max (the hydraulic aperture)."""
     mesh = network.mesh
-    ends = mesh.pipe_contacts[network.pipe_index]
-    hydraulic = np.minimum(aperture, fluid.maximum_aperture)
-    a = 0.5 * (hydraulic[ends[:, 0]] + hydraulic[ends[:, 1]])
     i = network.pipe_index
+    a = mean_hydraulic_apertures(np.asarray(aperture, dtype=float), fluid.maximum_aperture,
+                                 mesh.pipe_contacts, i)
     return a**3 / (12.0 * fluid.viscosity) * mesh.pipe_width[i] / mesh.pipe_length[i]
 
 

@@ -10,10 +10,11 @@ from __future__ import annotations
 import numpy as np
 
 from grainfrac.assembly import GrainAssembly
+from grainfrac.physics.coupling_kernels import contact_openings
 
 
 def contact_opening(assembly: GrainAssembly, u: np.ndarray) -> np.ndarray:
     """Normal opening (m, positive when the faces separate) of every sub-contact."""
     mesh = assembly.mesh
-    du = u[mesh.contact_nodes[:, 1]] - u[mesh.contact_nodes[:, 0]]
-    return np.sum(du * mesh.contact_normal, axis=1)
+    return contact_openings(np.asarray(u, dtype=float), mesh.contact_nodes,
+                            mesh.contact_normal)

@@ -23,6 +23,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
+from grainfrac.physics.coupling_kernels import laplacian_data
+
 # Systems of at least this many free unknowns are solved iteratively. Below it the
 # factorisation is cheap (a 3D 100 x 100 x 20 mm slab's 12,473 unknowns), and every
 # documented result of the smaller specimens stays as the direct solve gave it.
@@ -108,8 +110,8 @@ class _LaplacianPattern:
     def matrix(self, cond: np.ndarray) -> sp.csr_matrix:
         if not self.exact:
             return _converted_laplacian(self.n, self.ends, cond)
-        values = _laplacian_entries(self.ends, cond)[0]
-        data = np.bincount(self.slot, weights=values[self.order], minlength=len(self.indices))
+        data = laplacian_data(np.asarray(cond, dtype=float), self.order, self.slot,
+                              len(self.indices))
         out = sp.csr_matrix((data, self.indices.copy(), self.indptr.copy()),
                             shape=(self.n, self.n))
         out.has_canonical_format = True
