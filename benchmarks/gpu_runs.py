@@ -22,6 +22,9 @@ Two measurements, each a plain ``run_scenario`` into a run directory:
     ``--limit-s`` the run is stopped (SIGTERM: a checkpoint, as a user's Ctrl-C) and
     the split covers the part it ran.
 
+The host's parallel work, the 3D mesher's pieces above all, runs on every core
+(``--threads``, default all; the mesh and the results are the same on any number).
+
 Usage (from the repository root, on a machine with an NVIDIA GPU)::
 
     PYTHONPATH=src python3 benchmarks/gpu_runs.py same-answers cube --out /tmp/gpu-runs
@@ -57,6 +60,7 @@ from grainfrac.physics.solver import BACKEND_VARIABLE, MechanicsSolver
 from grainfrac.run import RunInterrupted
 from grainfrac.scenario import Scenario
 from grainfrac.simulation import run_scenario
+from grainfrac.threads import THREADS_VARIABLE, default_threads
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _clock import Clock  # noqa: E402
@@ -254,13 +258,19 @@ def main() -> None:
     parser.add_argument("--sums", nargs="+", choices=("ordered", "atomic"),
                         default=["ordered", "atomic"],
                         help="how the GPU sums nodal forces in same-answers (both by default)")
+    parser.add_argument("--threads", default="all",
+                        help="CPU threads of the host's parallel work, the 3D mesher's "
+                             "pieces above all ($GRAINFRAC_THREADS; default all: the same "
+                             "mesh and results on any number)")
     parser.add_argument("--profile", action="store_true",
                         help="profile the cube run (cProfile): cube-BACKEND.prof in --out, "
                              "and the top functions printed")
     args = parser.parse_args()
+    os.environ[THREADS_VARIABLE] = args.threads
     say(f"# grainfrac whole-run GPU benchmark, "
         f"{datetime.datetime.now().isoformat(timespec='seconds')}, "
-        f"{os.cpu_count()} CPU cores, numba threads {numba.config.NUMBA_NUM_THREADS}")
+        f"{os.cpu_count()} CPU cores, numba threads {numba.config.NUMBA_NUM_THREADS}, "
+        f"grainfrac threads {default_threads()}")
     if args.backend == "cuda" or "same-answers" in args.what:
         from grainfrac.physics.cuda import device_name
 

@@ -146,13 +146,14 @@ def _displacement_to_fail(fracture_energy: np.ndarray, strength: np.ndarray) -> 
     return np.where((fracture_energy > 0) & (strength > 0), 2.0 * fracture_energy / safe, 0.0)
 
 
-def nodal_stiffness_bound(
-    node_count, cells, grad, measure, lam, mu, contact_nodes, frame, contact_area, kn, ks,
-) -> np.ndarray:
-    """Gershgorin bound of each node's stiffness row (N/m): largest over its dofs."""
-    d = grad.shape[2]
-    k = np.zeros((node_count, d))
-    np.add.at(k, cells, element_row_sums(grad, measure, lam, mu))
+def nodal_stiffness_bound(grain_rows: np.ndarray, contact_nodes, frame, contact_area, kn,
+                          ks) -> np.ndarray:
+    """Gershgorin bound of each node's stiffness row (N/m): largest over its dofs.
+
+    ``grain_rows`` (nodes, d): the grains' part, :func:`element_row_sums` added onto the
+    nodes; the contacts' rows are added to a copy of it."""
+    d = grain_rows.shape[1]
+    k = grain_rows.copy()
     normal = frame[:, 0]
     kmat = (kn * contact_area)[:, None, None] * np.einsum("ci,cj->cij", normal, normal)
     for t in range(1, d):
@@ -255,17 +256,16 @@ def model_from_arrays(
                else np.asarray(shear_fracture_energy, dtype=np.float64))
     real_mass = np.zeros(n_nodes)
     np.add.at(real_mass, cells, element.lumped_mass(density, size, thickness))
-    k_nodes = nodal_stiffness_bound(
-        n_nodes, cells, grad, measure, lam, mu, contact_nodes, contact_frame, contact_area,
-        normal_stiffness, shear_stiffness,
-    )
+    # Once: each is a pass over every element's 12 x 12 stiffness (5 s on the 100 mm cube).
+    k_grain = np.zeros((n_nodes, dimension))
+    np.add.at(k_grain, cells, element_row_sums(grad, measure, lam, mu))
+    k_nodes = nodal_stiffness_bound(k_grain, contact_nodes, contact_frame, contact_area,
+                                    normal_stiffness, shear_stiffness)
     fraction = float(mass_scaling)
     if not 0.0 <= fraction <= 1.0:
         raise ValueError(f"mass_scaling must be a bool or a fraction in [0, 1], got {mass_scaling}")
     real_dt = safety * 2.0 / np.sqrt(np.max(k_nodes / real_mass))
     if fraction > 0.0:
-        k_grain = np.zeros((n_nodes, dimension))
-        np.add.at(k_grain, cells, element_row_sums(grad, measure, lam, mu))
         grain_node_dt = 2.0 / np.sqrt(k_grain.max(axis=1) / real_mass)
         dt = safety * float(np.quantile(grain_node_dt, MASS_SCALING_QUANTILE))
         if fraction < 1.0:
