@@ -1,7 +1,8 @@
 """Compiled kernels of the coupling's host work (numba, CPU).
 
 A coupled step reads the contacts' openings, turns the pore apertures into pipe
-conductances and assembles the pipes' Laplacian, every fluid step, on the host. On the
+conductances, assembles the pipes' Laplacian and finds the grains with no bond left,
+every fluid step, on the host. On the
 GPU backend the host does this while the device waits: on the 100 mm cube it was most
 of a fluid step's time (``benchmarks/pressure_solve.py --mechanics-steps 1``). Each
 kernel does the arithmetic of the numpy expression it replaces, in the same order, so
