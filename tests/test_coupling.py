@@ -625,3 +625,26 @@ def test_the_shared_crack_mode_opens_a_crack_as_sneddon_under_a_uniform_rise(cou
     own = local[nodes] - closed[nodes] + shared.diagonal()[nodes]
     assert np.all(own < uniform[nodes])
     assert np.median(own / uniform[nodes]) < 0.5
+
+
+def test_a_save_written_over_an_earlier_one_is_a_fresh_save(coupled):
+    """``save_state(into=...)`` (the coupled step's save before each fluid step) writes
+    the state into the earlier save's arrays, holds what a fresh save holds, and takes
+    a new array where the shapes differ."""
+    m = coupled.mechanics
+    start = m.save_state()
+    earlier = m.save_state()
+    earlier["arrays"]["stress"] = np.zeros(3)  # as if the model had changed
+    try:
+        m.cycle(3)
+        fresh, reused = m.save_state(), m.save_state(into=earlier)
+        for name, value in reused["arrays"].items():
+            assert np.array_equal(value, fresh["arrays"][name]), name
+            assert (value is earlier["arrays"][name]) == (name != "stress"), name
+        assert reused["external"] is earlier["external"]
+        assert reused["step_count"] == fresh["step_count"] == start["step_count"] + 3
+        m.restore_state(start)
+        m.restore_state(reused)
+        assert np.array_equal(m.u, fresh["arrays"]["u"])
+    finally:
+        m.restore_state(start)
