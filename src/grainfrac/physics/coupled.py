@@ -500,8 +500,10 @@ class HydroMechanicalSolver:
                             parent_jump: float = math.inf, *,
                             crack_free_above: float = math.inf) -> None:
         # The top level's save is written over by the next step's (recursion below
-        # it makes saves of its own while this one is still needed).
-        mech_saved = self.mechanics.save_state(self._spare_save if depth == 0 else None)
+        # it makes saves of its own while this one is still needed). Without the
+        # stresses: a restore here is always followed by a cycle, which writes them.
+        mech_saved = self.mechanics.save_state(self._spare_save if depth == 0 else None,
+                                               with_stress=False)
         if depth == 0:
             self._spare_save = mech_saved
         n_cracks = len(self.mechanics.cracks.contact)

@@ -327,7 +327,7 @@ class MechanicsSolver:
             target[...] = value
 
     # -- state in memory (step rejection) ------------------------------------------
-    def save_state(self, into: dict | None = None) -> dict:
+    def save_state(self, into: dict | None = None, *, with_stress: bool = True) -> dict:
         """A copy of everything :meth:`cycle` changes, for :meth:`restore_state`.
 
         Not the element-sized inputs that only stages set (``SET_BY_STAGES``), nor the
@@ -338,9 +338,15 @@ class MechanicsSolver:
         ``into``: an earlier save that is no longer needed, whose arrays are written
         over where they are the same ones (fresh arrays of the cube's tens of
         megabytes cost the page faults of new memory on every fluid step).
+
+        ``with_stress`` False leaves out the element stresses, which every step writes
+        before it reads them: for a caller that steps after each restore before
+        anything reads them (the coupled step; two thirds of a save on the 100 mm cube).
         """
         fixed = SET_BY_STAGES if self.eigenstrain_rate.any() else (*SET_BY_STAGES,
                                                                    "eigenstrain")
+        if not with_stress:
+            fixed = (*fixed, "stress")
         spare = {} if into is None else into["arrays"]
         return {
             "arrays": {name: _copy(getattr(self, name), spare.get(name))
