@@ -256,7 +256,7 @@ def model_from_arrays(
                else np.asarray(shear_fracture_energy, dtype=np.float64))
     real_mass = np.zeros(n_nodes)
     np.add.at(real_mass, cells, element.lumped_mass(density, size, thickness))
-    # Once: each is a pass over every element's 12 x 12 stiffness (5 s on the 100 mm cube).
+    # Summed once for both bounds: a pass over every element stiffness (4.9 s on the cube).
     k_grain = np.zeros((n_nodes, dimension))
     np.add.at(k_grain, cells, element_row_sums(grad, measure, lam, mu))
     k_nodes = nodal_stiffness_bound(k_grain, contact_nodes, contact_frame, contact_area,
