@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import sys
+import threading
 
 import numpy as np
 
@@ -24,6 +25,38 @@ from grainfrac.physics.records import ENERGY_KEYS
 from grainfrac.physics.solver import MechanicsSolver, NumericalBlowUp, PoreSprings
 
 
+def quicken_simulator() -> None:
+    """Run numba's CUDA simulator about 7 x faster, with the same results.
+
+    The simulator runs each thread of a block as a Python thread while the launching
+    thread polls them; at Python's default 5 ms switch interval the poll holds the
+    interpreter most of the time (162 tetrahedra, 12 steps: 52 s; at 0.1 ms: 8 s,
+    the same report). A short interval also exposes a race in the simulator: a
+    block's threads get its shared array from a dictionary filled without a lock,
+    so two threads can each make one (at 0.01 ms the energy books of two kernels
+    came out wrong); the lock below closes it.
+    """
+    from numba.cuda.simulator import kernelapi
+
+    lock = threading.Lock()
+
+    def array(self, shape, dtype):
+        if shape == 0:  # dynamic shared memory: one buffer made up front, no race
+            return unlocked(self, shape, dtype)
+        if isinstance(dtype, kernelapi.types.Type):
+            dtype = kernelapi.numpy_support.as_dtype(dtype)
+        caller = sys._getframe(1)
+        key = (caller.f_code.co_filename, caller.f_lineno)  # the simulator's own key
+        with lock:
+            if key not in self._allocations:
+                self._allocations[key] = np.empty(shape, dtype)
+            return self._allocations[key]
+
+    unlocked = kernelapi.FakeCUDAShared.array
+    kernelapi.FakeCUDAShared.array = array
+    sys.setswitchinterval(1e-4)
+
+
 def relative(a: np.ndarray, b: np.ndarray) -> float:
     scale = max(float(np.max(np.abs(a))), 1e-300)
     return float(np.max(np.abs(a - b)) / scale)
@@ -33,6 +66,8 @@ def main() -> None:
     n, steps, cycles = (int(a) for a in sys.argv[1:4])
     velocity = float(sys.argv[4])
     extras = len(sys.argv) > 5 and sys.argv[5] == "extras"
+    if SIMULATOR:
+        quicken_simulator()
     block = grain_block(n, cuts=2)
     solvers = []
     for backend in ("cpu", "cuda"):
