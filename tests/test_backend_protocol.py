@@ -31,8 +31,14 @@ from grainfrac.io.config import validate
 from grainfrac.physics import kernels
 from grainfrac.physics.cuda import stepper
 from grainfrac.physics.cuda.mechanics import CudaMechanics
+from grainfrac.physics.cuda.synthetic import grain_block
 from grainfrac.physics.records import ENERGY_DTYPE, StepControl
-from grainfrac.physics.solver import BACKEND_VARIABLE, resolve_backend
+from grainfrac.physics.solver import (
+    BACKEND_VARIABLE,
+    STATE_ARRAYS,
+    MechanicsSolver,
+    resolve_backend,
+)
 from grainfrac.scenario import Scenario
 from grainfrac.simulation import run_scenario
 
@@ -60,6 +66,10 @@ class _EmulatedCuda:
     @staticmethod
     def device_array(shape):
         return np.empty(shape).view(_DeviceArray)
+
+    @staticmethod
+    def pinned_array(shape, dtype=np.float64):
+        return np.empty(shape, dtype)
 
     @staticmethod
     def synchronize() -> None:
@@ -124,6 +134,27 @@ def test_the_run_restored_rejected_fluid_steps_on_the_device(runs):
     *_, pushes = runs
     print(f"whole-state copies to the device: {pushes}")
     assert pushes > 3
+
+
+def test_a_gpu_solver_keeps_its_state_in_pinned_host_memory(monkeypatch):
+    """Every state array of a solver on the GPU backend (copied each cycle; not the
+    64-byte energy books) is made by ``cuda.pinned_array``, and starts as the CPU
+    solver's."""
+    made = []
+
+    def pinned_array(shape, dtype=np.float64):
+        made.append(np.empty(shape, dtype))
+        return made[-1]
+
+    monkeypatch.setattr(_EmulatedCuda, "pinned_array", staticmethod(pinned_array))
+    monkeypatch.setattr(stepper, "cuda", _EmulatedCuda)
+    model = grain_block(2, cuts=2).model
+    gpu, cpu = MechanicsSolver(model, backend="cuda"), MechanicsSolver(model)
+    for name in (set(STATE_ARRAYS) - {"energies"}) | {"force"}:
+        array, reference = getattr(gpu, name), getattr(cpu, name)
+        assert any(array is a for a in made), name
+        assert array.dtype == reference.dtype, name
+        np.testing.assert_array_equal(array, reference, err_msg=name)
 
 
 def test_backend_cuda_without_a_gpu_is_refused_before_any_compute(monkeypatch):

@@ -180,22 +180,28 @@ class MechanicsSolver:
         self.damping = damping
         self.allow_failure = True
         n, c, m, d = model.n_nodes, model.n_contacts, model.n_elements, model.dimension
-        self.u = np.zeros((n, d))
-        self.v = np.zeros((n, d))
-        self.force = np.zeros((n, d))
-        self.stress = np.zeros((m, n_stress_components(d)))
-        self.bonded = model.initially_bonded.copy()
-        self.status = np.zeros(c, dtype=np.int64)
-        self.sigma_n = np.zeros(c)
-        self.tau = np.zeros((c, d - 1))
-        self.damage = np.zeros(c)
-        self.plastic_opening = np.zeros(c)
-        self.contact_pressure = np.zeros(c)
-        self.released = np.zeros(c)
-        self.eigenstrain = np.zeros(m)
-        self.eigenstrain_rate = np.zeros(m)
-        self.initial_strain = np.zeros((m, n_strain_components(d)))
-        self.opening_offset = np.zeros(c)
+        zeros = np.zeros
+        if backend == "cuda":
+            # Pinned host memory: the state crosses the bus every cycle (the 100 mm
+            # cube's pull is ~70 MB a fluid step).
+            from grainfrac.physics.cuda import host_zeros as zeros
+        self.u = zeros((n, d))
+        self.v = zeros((n, d))
+        self.force = zeros((n, d))
+        self.stress = zeros((m, n_stress_components(d)))
+        self.bonded = zeros(c, dtype=np.bool_)
+        self.bonded[:] = model.initially_bonded
+        self.status = zeros(c, dtype=np.int64)
+        self.sigma_n = zeros(c)
+        self.tau = zeros((c, d - 1))
+        self.damage = zeros(c)
+        self.plastic_opening = zeros(c)
+        self.contact_pressure = zeros(c)
+        self.released = zeros(c)
+        self.eigenstrain = zeros(m)
+        self.eigenstrain_rate = zeros(m)
+        self.initial_strain = zeros((m, n_strain_components(d)))
+        self.opening_offset = zeros(c)
         self.energies = new_energies()
         self.time = 0.0
         self.step_count = 0

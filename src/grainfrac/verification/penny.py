@@ -183,10 +183,17 @@ class PennyRun:
         return self.config.reference()
 
 
-def penny_run(config: PennyConfig | None = None, seed: int = 0) -> PennyRun:
-    """Build the cube, cut the disc, inject at its centre and measure at ``config.times``."""
+def penny_run(config: PennyConfig | None = None, seed: int = 0,
+              assembly: GrainAssembly | None = None) -> PennyRun:
+    """Build the cube, cut the disc, inject at its centre and measure at ``config.times``.
+
+    ``assembly``: the cube as :func:`penny_assembly` built it for this ``config``'s
+    geometry and ``seed``, to share between runs that differ in their numerics only
+    (it is read, not changed; its build is most of a coarse run's time).
+    """
     config = config or PennyConfig()
-    assembly = penny_assembly(config, seed)
+    if assembly is None:
+        assembly = penny_assembly(config, seed)
     mesh = assembly.mesh
     on_plane, in_disc = penny_plane_contacts(mesh)
     mech = MechanicsSolver(build_mechanical_model(assembly))

@@ -14,9 +14,10 @@ from grainfrac.physics.cuda.stepper import (
     copy_fields,
     device_energies,
     fetch_cracks,
+    host_zeros,
     run_steps_cuda,
     to_device,
 )
 
 __all__ = ["SIMULATOR", "CudaMechanics", "copy_fields", "cuda_available", "device_energies",
-           "device_name", "fetch_cracks", "run_steps_cuda", "to_device"]
+           "device_name", "fetch_cracks", "host_zeros", "run_steps_cuda", "to_device"]

@@ -43,6 +43,15 @@ def to_device(record):
                           else a for a in record))
 
 
+def host_zeros(shape, dtype=np.float64) -> np.ndarray:
+    """Zeros in page-locked (pinned) host memory: copies between it and the device go
+    straight over the bus, where pageable memory is staged through a driver buffer
+    first. For the state arrays of a solver on the GPU backend, copied every cycle."""
+    array = cuda.pinned_array(shape, dtype)
+    array[...] = 0
+    return array
+
+
 def copy_fields(source, target, names: tuple[str, ...]) -> None:
     """Copy the named arrays of one record into another of the same type, in place:
     host to device or device to host (whichever ``target`` holds)."""
