@@ -65,6 +65,38 @@ def test_snapshot_series(ucs, tmp_path):
     assert all((tmp_path / "snapshots" / f).is_file() for f in files)
 
 
+def test_background_snapshots_are_the_files_of_their_moment(ucs, tmp_path):
+    """Written by the worker thread, each snapshot holds the arrays as they were when it
+    was taken (the caller changes them right after) and is byte for byte the file the
+    caller's own thread writes; a write's error comes out of ``wait``."""
+    n, m, c = ucs.mesh.n_nodes, ucs.mesh.n_elements, ucs.mesh.n_contacts
+    rng = np.random.default_rng(1)
+    u, stress = rng.normal(size=(n, 2)) * 1e-6, rng.normal(size=(m, 4))
+    sigma_n, tau, pressure = rng.normal(size=c), rng.normal(size=(c, 1)), np.ones(c)
+    status = np.zeros(c, dtype=np.int64)
+    fields = dict(u=u, stress=stress, sigma_n=sigma_n, tau=tau[:, 0], status=status,
+                  pressure=pressure, aperture=2e-6 * pressure)
+    series = {kind: SnapshotSeries(tmp_path / kind, background=kind == "background")
+              for kind in ("foreground", "background")}
+    for k in range(3):
+        for s in series.values():
+            s.write(ucs, time=0.1 * k, **fields)
+        for array in (u, stress, sigma_n, tau, status, pressure):
+            array += 1  # the run goes on while the worker writes
+    series["background"].wait()
+    names = sorted(p.name for p in (tmp_path / "foreground").iterdir())
+    assert len(names) == 7  # two files a snapshot and the index
+    for name in names:
+        assert ((tmp_path / "background" / name).read_bytes()
+                == (tmp_path / "foreground" / name).read_bytes()), name
+    blocked = SnapshotSeries(tmp_path / "in-the-way", background=True)
+    (tmp_path / "in-the-way").write_text("a file where the directory should be")
+    blocked.write(ucs, time=0.0, **fields)
+    with pytest.raises(OSError):
+        blocked.wait()
+    blocked.wait()  # the error is reported once
+
+
 def test_crack_catalogue_rows(ucs, tmp_path):
     contacts = [4, 9]
     cat = crack_catalogue(ucs, contacts, [1e-3, 2e-3], [TENSILE, SHEAR], [1e-6, 2e-6])

@@ -360,7 +360,9 @@ class Run(Hooks):
         self.stages: list[Stage] = from_scenario(scenario, base_dir)
         self.driver = Driver(self.stages, self.world, self)
         self.record = RunRecord()
-        self.snapshots = SnapshotSeries(self.out / "snapshots")
+        # Written by a worker thread while the mechanics goes on; every checkpoint
+        # waits for them, so that a checkpoint lists only snapshots on disk.
+        self.snapshots = SnapshotSeries(self.out / "snapshots", background=True)
         mesh = self.assembly.mesh
         self._centroids = mesh.node_x[mesh.element_nodes].mean(axis=1)
         self._near_well: Ring | None = None  # found at the first history row
@@ -407,11 +409,16 @@ class Run(Hooks):
         try:
             self.driver.execute()
         except NumericalBlowUp as exc:
+            self.snapshots.wait(raise_errors=False)
             i = self.driver.state.stage_index
             raise RunFailed(
                 f"stage {i + 1} ({self.stages[i].kind}) stopped: {exc}; the last "
                 f"good state is in {self.checkpoint_path}"
             ) from None
+        except BaseException:
+            self.snapshots.wait(raise_errors=False)  # the files begun, whatever stopped us
+            raise
+        self.snapshots.wait()
 
     def after_chunk(self, stage: Stage) -> None:
         self._record(stage)
@@ -560,7 +567,9 @@ class Run(Hooks):
 
     # -- checkpoints --------------------------------------------------------------------
     def checkpoint(self) -> None:
-        """Write every record of the run's state, then history.csv."""
+        """Write every record of the run's state, then history.csv (once the snapshots
+        it lists are written)."""
+        self.snapshots.wait()
         s, w = self.solver, self.world
         self.record.wall_time_s = self.wall_time()
         self._started = wallclock.monotonic()

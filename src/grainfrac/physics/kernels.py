@@ -578,7 +578,8 @@ def platen_forces(u, platens, p, force):
 
 
 # -- the explicit loop ---------------------------------------------------------------------
-@njit(cache=True)
+# nogil: a run's snapshot files are compressed by another thread meanwhile.
+@njit(cache=True, nogil=True)
 def run_steps(control, nodes, loads, elements, element_state, contacts, contact_state,
               adjacency, platens, pores, energies, cracks):
     """Advance ``control.n_steps`` explicit steps without returning to Python.
