@@ -408,16 +408,15 @@ class Run(Hooks):
         """Run (or continue) every stage to the end."""
         try:
             self.driver.execute()
-        except NumericalBlowUp as exc:
-            self.snapshots.wait(raise_errors=False)
+        except BaseException as exc:
+            self.snapshots.wait(raise_errors=False)  # the files begun, whatever stopped us
+            if not isinstance(exc, NumericalBlowUp):
+                raise
             i = self.driver.state.stage_index
             raise RunFailed(
                 f"stage {i + 1} ({self.stages[i].kind}) stopped: {exc}; the last "
                 f"good state is in {self.checkpoint_path}"
             ) from None
-        except BaseException:
-            self.snapshots.wait(raise_errors=False)  # the files begun, whatever stopped us
-            raise
         self.snapshots.wait()
 
     def after_chunk(self, stage: Stage) -> None:
