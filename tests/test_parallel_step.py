@@ -8,6 +8,11 @@ reduced in another order (round-off, 1e-12 relative asserted).
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+from pathlib import Path
+
 import numba
 import numpy as np
 import pytest
@@ -64,14 +69,15 @@ def test_parallel_step_is_the_serial_step_bit_for_bit():
     assert worst < 1e-12
 
 
-def _pull_block(threads: int) -> MechanicsSolver:
-    """A 3D block of four bonded slab grains pulled apart across its contact planes."""
+def _pull_block(threads: int, cycles: int = 40) -> MechanicsSolver:
+    """A 3D block of four bonded slab grains pulled apart across its contact planes (up
+    to ``cycles`` cycles of 100 steps)."""
     from grainfrac.physics.cuda.synthetic import grain_block, pull_loads
 
     block = grain_block(8, size=8e-3, cuts=3, softening=True)
     solver = MechanicsSolver(block.model, pull_loads(block, (2.0, 0.0, 0.0)),
                              threads=threads)
-    for _ in range(40):
+    for _ in range(cycles):
         solver.cycle(100)
         if len(solver.cracks.contact) > 20:
             break
@@ -86,6 +92,46 @@ def test_parallel_3d_step_is_the_serial_step_bit_for_bit():
     for name, a in serial.state_arrays().items():
         if name != "energies":
             assert np.array_equal(a, parallel.state_arrays()[name]), name
+
+
+def solvers_take_turns() -> None:
+    """Two solvers on 2 numba threads each, stepped from two Python threads at once,
+    end as one does alone (run by the test below in a subprocess)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    def pull(solver: MechanicsSolver) -> MechanicsSolver:
+        for _ in range(40):
+            solver.cycle(100)
+            if len(solver.cracks.contact) > 20:
+                break
+        return solver
+
+    solvers = [_pull_block(2, cycles=0) for _ in range(3)]  # built one after another
+    alone = pull(solvers[0])
+    with ThreadPoolExecutor(2) as pool:
+        together = list(pool.map(pull, solvers[1:]))
+    for solver in together:
+        assert solver.cracks.contact == alone.cracks.contact
+        for name, a in alone.state_arrays().items():
+            if name != "energies":
+                assert np.array_equal(a, solver.state_arrays()[name]), name
+
+
+@pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs 2 numba threads")
+def test_parallel_solvers_in_two_threads_of_one_process_take_turns():
+    """The explicit loop lets go of the interpreter, but solvers in two threads of one
+    process still step one at a time: under numba's workqueue threading layer (the one
+    left where neither OpenMP nor TBB is found) two parallel launches at once abort the
+    process, as they did here without the solvers' lock."""
+    tests = Path(__file__).resolve().parent
+    env = {**os.environ, "NUMBA_THREADING_LAYER": "workqueue",
+           "PYTHONPATH": os.pathsep.join([str(tests.parent / "src"),
+                                          os.environ.get("PYTHONPATH", "")])}
+    code = ("import sys; sys.path.insert(0, sys.argv[1]); "
+            "from test_parallel_step import solvers_take_turns; solvers_take_turns()")
+    out = subprocess.run([sys.executable, "-c", code, str(tests)], env=env,
+                         capture_output=True, text=True, timeout=300, check=False)
+    assert out.returncode == 0, out.stderr[-3000:]
 
 
 def test_cell_blocks_share_no_node_and_cover_every_cell():

@@ -8,6 +8,7 @@ nor plots (that is io/ and viz/).
 from __future__ import annotations
 
 import os
+import threading
 from dataclasses import dataclass, field
 
 import numba
@@ -81,6 +82,12 @@ class NumericalBlowUp(GrainfracError):
 # Quasi-static grain motions are far below this (m/s); beyond it the explicit
 # scheme is running away, not the rock.
 DEFAULT_VELOCITY_LIMIT = 100.0
+
+# The explicit loop lets go of the interpreter (a run's snapshots are written
+# meanwhile), but solvers stepping in several threads of one process still take turns,
+# as they did while it held it: numba's "workqueue" threading layer (the one left where
+# neither OpenMP nor TBB is found) aborts on parallel kernels entered from two threads.
+_STEPPING = threading.Lock()
 
 
 @dataclass
@@ -247,14 +254,15 @@ class MechanicsSolver:
         platens = self._platen_set()
         if self.threads > 1:
             numba.set_num_threads(self.threads)  # per calling thread; cheap
-        n_new, done = kernels.run_steps(
-            StepControl(int(n_steps), m.dt, self.damping, bool(self.allow_failure),
-                        float(self.velocity_limit), self.threads),
-            self.node_state(), NodeLoads(m.mass, ld.external, ld.fixed, ld.prescribed_velocity),
-            m.elements, self.element_state(), m.contacts, self.contact_state(), m.adjacency,
-            platens,
-            self.pore_springs.record(), self.energies, self._crack_log,
-        )
+        control = StepControl(int(n_steps), m.dt, self.damping, bool(self.allow_failure),
+                              float(self.velocity_limit), self.threads)
+        node_loads = NodeLoads(m.mass, ld.external, ld.fixed, ld.prescribed_velocity)
+        with _STEPPING:
+            n_new, done = kernels.run_steps(
+                control, self.node_state(), node_loads, m.elements, self.element_state(),
+                m.contacts, self.contact_state(), m.adjacency, platens,
+                self.pore_springs.record(), self.energies, self._crack_log,
+            )
         self._book_cycle(self._crack_log.contact[:n_new], self._crack_log.step[:n_new],
                          platens.position, platens.reaction, done, n_steps)
 
