@@ -411,9 +411,15 @@ def _displace(x: np.ndarray, in_face: np.ndarray, jitter: float, rng: np.random.
 
 
 def build_scda_model(assembly: GrainAssembly, fill: ScdaFill, *, safety: float = 0.5,
-                     mass_scaling: bool | float = True) -> MechanicalModel:
-    """The rock model with the plug's blocks, wall contacts and block contacts appended."""
-    rock = build_mechanical_model(assembly, safety=safety, mass_scaling=mass_scaling)
+                     mass_scaling: bool | float = True,
+                     rock: MechanicalModel | None = None) -> MechanicalModel:
+    """The rock model with the plug's blocks, wall contacts and block contacts appended.
+
+    ``rock``: a model of ``assembly`` already built (only its contact properties are
+    read, which safety and mass scaling leave alone); built here if not given.
+    """
+    if rock is None:
+        rock = build_mechanical_model(assembly, safety=safety, mass_scaling=mass_scaling)
     mesh = assembly.mesh
     n_rock = mesh.n_nodes
     rec = fill.recipe

@@ -43,7 +43,8 @@ class ScdaCharge:
         if world.scda_fill is None:
             world.scda_fill = scda.scda_fill(world.assembly, self.material)
             world.scda_model = scda.build_scda_model(world.assembly, world.scda_fill,
-                                                     mass_scaling=world.mass_scaling)
+                                                     mass_scaling=world.mass_scaling,
+                                                     rock=world.rock_model)
 
     def begin(self, world: World) -> None:
         self.state.start_time = world.solver.time
