@@ -77,52 +77,53 @@ def element_row_sums(grad: np.ndarray, measure: np.ndarray, lam: np.ndarray,
                      np.ascontiguousarray(mu, dtype=float), pairs).reshape(m, k, d)
 
 
-@njit(cache=True, inline="always")
-def _b_entry(grad, e, i, a, d, pairs):
-    """B[i, a] of element e (see :func:`strain_displacement`), built on the fly."""
-    node, axis = a // d, a % d
-    if i < d:
-        return grad[e, node, i] if axis == i else 0.0
-    p, q = pairs[i - d, 0], pairs[i - d, 1]
-    if axis == p:
-        return grad[e, node, q]
-    if axis == q:
-        return grad[e, node, p]
-    return 0.0
-
-
-@njit(cache=True, inline="always")
-def _d_entry(lam, mu, e, i, j, d):
-    """D[i, j] of element e (see :func:`elasticity_matrix`)."""
-    if i < d and j < d:
-        return lam[e] + 2 * mu[e] if i == j else lam[e]
-    return mu[e] if i == j else 0.0
-
-
 @njit(cache=True, parallel=True)
 def _row_sums(grad, measure, lam, mu, pairs):
     """The reference's arithmetic in its order: ``einsum`` sums the products
     (B_ia D_ij) B_jc over i, then j; numpy's sum over a row adds fewer than 8 values
-    in turn and 8 or more pairwise in blocks of 8, then the rest in turn. Products
-    with a zero factor are skipped: adding them changes no sum."""
+    in turn and 8 or more pairwise in blocks of 8, then the rest in turn.
+
+    Each element's B and D are written out once, and each row keeps only its nonzero
+    products B_ia D_ij, in that order (a zero product adds nothing to a sum): d + 2
+    terms an entry in 3D instead of the whole double loop.
+    """
     m, k, d = grad.shape
     kd = k * d
     n = d * (d + 1) // 2
     out = np.empty((m, kd))
     for e in prange(m):
+        b = np.zeros((n, kd))
+        for node in range(k):
+            for i in range(d):
+                b[i, node * d + i] = grad[e, node, i]
+            for s in range(n - d):
+                p, q = pairs[s, 0], pairs[s, 1]
+                b[d + s, node * d + p] = grad[e, node, q]
+                b[d + s, node * d + q] = grad[e, node, p]
+        dm = np.zeros((n, n))
+        for i in range(d):
+            for j in range(d):
+                dm[i, j] = lam[e] + 2 * mu[e] if i == j else lam[e]
+        for i in range(d, n):
+            dm[i, i] = mu[e]
+        factor = np.empty(n * n)
+        row = np.empty(n * n, dtype=np.int64)
         v = np.empty(kd)
         for a in range(kd):
+            terms = 0
+            for i in range(n):
+                if b[i, a] == 0.0:
+                    continue
+                for j in range(n):
+                    t = b[i, a] * dm[i, j]
+                    if t != 0.0:
+                        factor[terms] = t
+                        row[terms] = j
+                        terms += 1
             for c in range(kd):
                 s = 0.0
-                for i in range(n):
-                    bia = _b_entry(grad, e, i, a, d, pairs)
-                    if bia == 0.0:
-                        continue
-                    for j in range(n):
-                        t = bia * _d_entry(lam, mu, e, i, j, d)
-                        if t == 0.0:
-                            continue
-                        s += t * _b_entry(grad, e, j, c, d, pairs)
+                for t in range(terms):
+                    s += factor[t] * b[row[t], c]
                 v[c] = abs(s * measure[e])
             if kd < 8:
                 total = 0.0
