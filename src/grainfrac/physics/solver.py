@@ -257,8 +257,9 @@ class MechanicsSolver:
         control = StepControl(int(n_steps), m.dt, self.damping, bool(self.allow_failure),
                               float(self.velocity_limit), self.threads)
         node_loads = NodeLoads(m.mass, ld.external, ld.fixed, ld.prescribed_velocity)
+        run_steps = kernels.run_steps_threaded if self.threads > 1 else kernels.run_steps
         with _STEPPING:
-            n_new, done = kernels.run_steps(
+            n_new, done = run_steps(
                 control, self.node_state(), node_loads, m.elements, self.element_state(),
                 m.contacts, self.contact_state(), m.adjacency, platens,
                 self.pore_springs.record(), self.energies, self._crack_log,
