@@ -12,9 +12,9 @@ import numpy as np  # noqa: E402
 from matplotlib.collections import LineCollection, PolyCollection  # noqa: E402
 
 from grainfrac.assembly import GrainAssembly  # noqa: E402
-from grainfrac.io.files import write_atomic  # noqa: E402
 from grainfrac.physics.codes import SIGN_LABEL  # noqa: E402
 from grainfrac.physics.fields import major_principal_stress  # noqa: E402
+from grainfrac.viz.saving import save_png  # noqa: E402
 
 
 def _frame(ax, assembly: GrainAssembly, title: str) -> None:
@@ -26,13 +26,6 @@ def _frame(ax, assembly: GrainAssembly, title: str) -> None:
     ax.set_xlabel("x (mm)")
     ax.set_ylabel("y (mm)")
     ax.set_title(title, fontsize=10)
-
-
-def _save(fig, path: str | Path) -> Path:
-    fig.tight_layout()
-    out = write_atomic(path, lambda p: fig.savefig(p, format="png", bbox_inches="tight"))
-    plt.close(fig)
-    return out
 
 
 def _element_map(ax, assembly: GrainAssembly, values: np.ndarray, cmap: str, label: str,
@@ -51,7 +44,7 @@ def plot_displacement(assembly: GrainAssembly, u: np.ndarray, path: str | Path, 
     fig, ax = plt.subplots(figsize=(6.0, 5.0), dpi=140)
     _element_map(ax, assembly, mag, "viridis", "displacement magnitude (um)")
     _frame(ax, assembly, title)
-    return _save(fig, path)
+    return save_png(fig, path)
 
 
 def plot_minor_principal_stress(assembly: GrainAssembly, stress: np.ndarray,
@@ -69,7 +62,7 @@ def plot_minor_principal_stress(assembly: GrainAssembly, stress: np.ndarray,
     _element_map(ax, assembly, values, "RdBu_r", f"minor principal stress (MPa, {SIGN_LABEL})",
                  vmin=-limit, vmax=limit)
     _frame(ax, assembly, title)
-    return _save(fig, path)
+    return save_png(fig, path)
 
 
 def plot_contact_pressure(assembly: GrainAssembly, pressure: np.ndarray, path: str | Path, *,
@@ -87,4 +80,4 @@ def plot_contact_pressure(assembly: GrainAssembly, pressure: np.ndarray, path: s
     ax.add_collection(coll)
     plt.colorbar(coll, ax=ax, label=f"fluid pressure (MPa, {SIGN_LABEL})", shrink=0.85)
     _frame(ax, assembly, title)
-    return _save(fig, path)
+    return save_png(fig, path)

@@ -12,7 +12,7 @@ import numpy as np  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 
 from grainfrac.assembly import GrainAssembly  # noqa: E402
-from grainfrac.io.files import write_atomic  # noqa: E402
+from grainfrac.viz.saving import save_png  # noqa: E402
 from grainfrac.viz.specimen import draw_assembly, legend_handles  # noqa: E402
 
 TENSILE_COLOUR = "#1f5fbf"
@@ -47,7 +47,4 @@ def plot_fracture_pattern(assembly: GrainAssembly, contact, mode, path: str | Pa
     ]
     ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8,
               frameon=False)
-    fig.tight_layout()
-    out = write_atomic(path, lambda p: fig.savefig(p, format="png", bbox_inches="tight"))
-    plt.close(fig)
-    return out
+    return save_png(fig, path, crop=True)  # the legend is outside the axes

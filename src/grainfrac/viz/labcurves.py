@@ -10,7 +10,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from grainfrac.io.files import write_atomic  # noqa: E402
+from grainfrac.viz.saving import save_png  # noqa: E402
 
 
 def plot_load_curve(x, y, path: str | Path, *, xlabel: str, ylabel: str, title: str,
@@ -33,7 +33,4 @@ def plot_load_curve(x, y, path: str | Path, *, xlabel: str, ylabel: str, title: 
         ax2 = ax.twinx()
         ax2.plot(x, np.asarray(secondary[0], dtype=float), color="0.55", lw=1.0, ls="--")
         ax2.set_ylabel(secondary[1], color="0.45")
-    fig.tight_layout()
-    out = write_atomic(path, lambda p: fig.savefig(p, format="png", bbox_inches="tight"))
-    plt.close(fig)
-    return out
+    return save_png(fig, path)

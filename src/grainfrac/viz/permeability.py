@@ -10,7 +10,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from grainfrac.io.files import write_atomic  # noqa: E402
+from grainfrac.viz.saving import save_png  # noqa: E402
 
 EXPERIMENT_COLOUR = "#d7191c"
 MODEL_COLOUR = "#2c7bb6"
@@ -41,7 +41,4 @@ def plot_permeability(curve: dict, path: str | Path, *, title: str | None = None
     ax.set_title(title or "Constant-head test, intact assembly (8 MPa / 0 MPa)", fontsize=10)
     ax.grid(True, which="both", alpha=0.25)
     ax.legend(fontsize=7, frameon=False, loc="upper left")
-    fig.tight_layout()
-    out = write_atomic(path, lambda p: fig.savefig(p, format="png", bbox_inches="tight"))
-    plt.close(fig)
-    return out
+    return save_png(fig, path)

@@ -10,8 +10,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from grainfrac.io.files import write_atomic  # noqa: E402
 from grainfrac.physics.codes import SIGN_LABEL  # noqa: E402
+from grainfrac.viz.saving import save_png  # noqa: E402
 
 PRESSURE_COLOUR = "#2c7bb6"
 CRACK_COLOUR = "#d7191c"
@@ -55,10 +55,7 @@ def plot_well_pressure(time, pressure, cracks, path: str | Path, *,
               loc="upper left")
     if title:
         ax.set_title(title, fontsize=10)
-    fig.tight_layout()
-    out = write_atomic(path, lambda p: fig.savefig(p, format="png", bbox_inches="tight"))
-    plt.close(fig)
-    return out
+    return save_png(fig, path)
 
 
 def plot_stage_history(rows: list[dict], path: str | Path, *, title: str | None = None) -> Path:
@@ -97,7 +94,4 @@ def plot_stage_history(rows: list[dict], path: str | Path, *, title: str | None 
               loc="upper left")
     if title:
         ax.set_title(title, fontsize=10, pad=14)
-    fig.tight_layout()
-    out = write_atomic(path, lambda p: fig.savefig(p, format="png", bbox_inches="tight"))
-    plt.close(fig)
-    return out
+    return save_png(fig, path)

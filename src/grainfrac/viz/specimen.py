@@ -15,6 +15,7 @@ from matplotlib.ticker import MaxNLocator  # noqa: E402
 
 from grainfrac.assembly import GrainAssembly  # noqa: E402
 from grainfrac.io.files import write_atomic  # noqa: E402
+from grainfrac.viz.saving import save_png  # noqa: E402
 
 # Granite-like colours: dark mica, pink feldspar, pale quartz.
 MINERAL_COLOURS = {"mica": "#3b3024", "feldspar": "#e8a98c", "quartz": "#dcdcd4"}
@@ -72,10 +73,7 @@ def plot_assembly(assembly: GrainAssembly, path: str | Path, *, show_mesh: bool 
     draw_assembly(ax, assembly, show_mesh=show_mesh, title=title)
     ax.legend(handles=legend_handles(assembly), loc="upper left", bbox_to_anchor=(1.01, 1.0),
               fontsize=8, frameon=False)
-    fig.tight_layout()
-    out = write_atomic(path, lambda p: fig.savefig(p, format="png", bbox_inches="tight"))
-    plt.close(fig)
-    return out
+    return save_png(fig, path, crop=True)  # the legend is outside the axes
 
 
 def plot_gallery(assemblies: list[tuple[str, GrainAssembly]], path: str | Path) -> Path:
