@@ -46,9 +46,9 @@ from grainfrac.analysis.fractures3d import (  # noqa: E402
 from grainfrac.assembly import GrainAssembly  # noqa: E402
 from grainfrac.geometry.meshing3d import GrainMesh3D  # noqa: E402
 from grainfrac.geometry.solids3d import Solid  # noqa: E402
-from grainfrac.io.files import write_atomic  # noqa: E402
 from grainfrac.physics.kernels import SHEAR, TENSILE  # noqa: E402
 from grainfrac.viz.fractures import SHEAR_COLOUR, TENSILE_COLOUR  # noqa: E402
+from grainfrac.viz.saving import save_png  # noqa: E402
 
 __all__ = [
     "MAX_POLYGONS",
@@ -171,13 +171,6 @@ def _mode_handles(codes: np.ndarray, area: dict[str, float | None] | None,
     return handles
 
 
-def _save(fig, path: str | Path) -> Path:
-    # No bbox_inches="tight": the PNG keeps the figure's exact pixel size.
-    out = write_atomic(path, lambda p: fig.savefig(p, format="png", dpi=DPI))
-    plt.close(fig)
-    return out
-
-
 # --------------------------------------------------------------------------- 3D view
 
 
@@ -281,7 +274,7 @@ def plot_cracks3d(assembly: GrainAssembly | GrainMesh3D, contact, mode, path: st
     if handles:
         fig.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize=9,
                    frameon=False)
-    return _save(fig, path)
+    return save_png(fig, path, fit=False)  # uncropped: the figure's own pixel size
 
 
 # --------------------------------------------------------------------------- sections
@@ -355,7 +348,7 @@ def plot_cross_sections(assembly: GrainAssembly | GrainMesh3D, contact, mode,
     heading = title if title is not None else "Cross-sections along the well"
     fig.suptitle(heading + ("" if ids.size else ": no cracks"), fontsize=11)
     fig.tight_layout(rect=(0, 0.04, 1, 0.97))
-    return _save(fig, path)
+    return save_png(fig, path, fit=False)  # uncropped: the figure's own pixel size
 
 
 # --------------------------------------------------------------------------- both

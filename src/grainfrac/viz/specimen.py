@@ -14,7 +14,6 @@ from matplotlib.patches import Patch  # noqa: E402
 from matplotlib.ticker import MaxNLocator  # noqa: E402
 
 from grainfrac.assembly import GrainAssembly  # noqa: E402
-from grainfrac.io.files import write_atomic  # noqa: E402
 from grainfrac.viz.saving import save_png  # noqa: E402
 
 # Granite-like colours: dark mica, pink feldspar, pale quartz.
@@ -84,9 +83,7 @@ def plot_gallery(assemblies: list[tuple[str, GrainAssembly]], path: str | Path) 
     first = assemblies[0][1]
     fig.legend(handles=legend_handles(first)[:3], loc="lower center", ncol=4, frameon=False)
     fig.tight_layout(rect=(0, 0.06, 1, 1))
-    out = write_atomic(path, lambda p: fig.savefig(p, format="png", bbox_inches="tight"))
-    plt.close(fig)
-    return out
+    return save_png(fig, path, crop=True, fit=False)
 
 
 # -- 3D ---------------------------------------------------------------------------------
@@ -179,6 +176,4 @@ def plot_assembly3d(assembly: GrainAssembly, path: str | Path, *,
         fig.suptitle(title, fontsize=11)
     fig.tight_layout()
     fig.subplots_adjust(wspace=0.3)  # tight_layout does not see the 3D view's z label
-    out = write_atomic(path, lambda p: fig.savefig(p, format="png", bbox_inches="tight"))
-    plt.close(fig)
-    return out
+    return save_png(fig, path, crop=True, fit=False)
