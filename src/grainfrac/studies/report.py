@@ -23,7 +23,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 import grainfrac  # noqa: E402
-from grainfrac.io.files import write_atomic, write_csv, write_json, write_text  # noqa: E402
+from grainfrac.io.files import write_csv, write_json, write_text  # noqa: E402
 from grainfrac.studies.claims import (  # noqa: E402
     FAILS,
     HOLDS,
@@ -35,6 +35,7 @@ from grainfrac.studies.claims import (  # noqa: E402
 )
 from grainfrac.studies.paper import Study  # noqa: E402
 from grainfrac.studies.sweep import SweepResult  # noqa: E402
+from grainfrac.viz.saving import save_png  # noqa: E402
 
 PAPER = ("Hybrid SCDA-HS rock pre-conditioning at the grain scale "
          "(paper/hybrid-scda-hs-preconditioning.txt)")
@@ -79,7 +80,8 @@ def plot_study(outcome: StudyOutcome, path: Path) -> Path:
     n = max(len(quantities), 1)
     cols = min(n, 2)
     rows = math.ceil(n / cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 3.4 * rows), squeeze=False)
+    fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 3.4 * rows), squeeze=False,
+                             dpi=110)
     points = [p.id for p in result.plan.points]
     x = np.arange(len(points))
     for ax, q in zip(axes.flat, quantities, strict=False):
@@ -111,11 +113,8 @@ def plot_study(outcome: StudyOutcome, path: Path) -> Path:
     n_runs = len(result.plan.points[0].runs) if result.plan.points else 0
     fig.suptitle(f"{study.title}\n({study.reference}; {n_runs} realisation(s) per point)",
                  fontsize=10)
-    fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
-    write_atomic(path, lambda p: fig.savefig(p, dpi=110, format="png"))
-    plt.close(fig)
-    return path
+    return save_png(fig, path)
 
 
 def _point_table(outcome: StudyOutcome) -> tuple[list[str], list[list[str]]]:
