@@ -20,7 +20,7 @@ Formulations:
 * ``nodal-across``: the same averaged across grain boundaries too (what a
   continuum code would do; not available to a grain model, shown for scale).
 
-Needs pyamg (``pip install -e ".[bench]"``). Usage::
+Usage::
 
     python benchmarks/kirsch3d_elements.py --zone-size 2 --seeds 0 1 2
 """
@@ -32,6 +32,7 @@ import math
 import time
 
 import numpy as np
+import pyamg
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
@@ -45,11 +46,6 @@ from grainfrac.verification.elastic3d import (
     homogeneous_slab3d,
     wall_triangles,
 )
-
-try:
-    import pyamg
-except ImportError as err:  # an optional extra: say which
-    raise SystemExit('this benchmark needs pyamg: pip install -e ".[bench]"') from err
 
 FORMULATIONS = ("linear", "nodal-grain", "nodal-across")
 _VOLUMETRIC = np.array([1.0, 1.0, 1.0, 0.0, 0.0, 0.0])

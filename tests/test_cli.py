@@ -119,3 +119,25 @@ def test_verify_zone_size_is_checked_before_any_compute():
     result = runner.invoke(app, ["verify", "kirsch", "--wall-zone-size", "1"])
     assert result.exit_code == 2
     assert "--wall-zone-size" in result.output and "kirsch" in result.output
+
+
+def test_verify_equilibrium_is_checked_and_passed_to_the_elastic_cases(monkeypatch):
+    from grainfrac import verification
+    from grainfrac.verification.report import Comparison
+
+    result = runner.invoke(app, ["verify", "kirsch", "--equilibrium", "implicit"])
+    assert result.exit_code == 2
+    assert "--equilibrium" in result.output and "'static' or 'explicit'" in result.output
+    result = runner.invoke(app, ["verify", "cubic-law", "--equilibrium", "explicit"])
+    assert result.exit_code == 2
+    assert "--equilibrium" in result.output and "cubic-law" in result.output
+    calls = []
+
+    def case(seed: int = 0, equilibrium: str = "static") -> list[Comparison]:
+        calls.append(equilibrium)
+        return [Comparison("kirsch", "x_MPa", 1.0, 1.0, 0.1)]
+
+    monkeypatch.setitem(verification.CASES, "kirsch", case)
+    for option in ([], ["--equilibrium", "explicit"]):
+        assert runner.invoke(app, ["verify", "kirsch", "--json", *option]).exit_code == 0
+    assert calls == ["static", "explicit"]

@@ -187,6 +187,12 @@ def verify(
         help="Zone size on the borehole wall (mm), refined over 5 mm beside it "
              "(kirsch3d, kirsch3d-plane-strain); default: kirsch3d 1 mm (or the zone "
              "size if finer), kirsch3d-plane-strain the zone size.")] = None,
+    equilibrium: Annotated[str | None, typer.Option(
+        "--equilibrium",
+        help="How the elastic cases (kirsch, lame, patch3d, lame3d, kirsch3d, "
+             "kirsch3d-plane-strain) reach equilibrium: 'static' (a sparse solve, then "
+             "explicit steps while the unbalanced-force ratio is above its target; the "
+             "default) or 'explicit' (dynamic relaxation alone).")] = None,
 ) -> None:
     """Compare a simulation with its analytical solution; exit 1 if any quantity fails."""
     import inspect
@@ -205,6 +211,14 @@ def verify(
         if "wall_zone_size_mm" not in inspect.signature(CASES[name]).parameters:
             _fail(ValueError(f"--wall-zone-size: the case {name!r} does not refine its wall"))
         options["wall_zone_size_mm"] = wall_zone_size
+    if equilibrium is not None:
+        if equilibrium not in ("static", "explicit"):
+            _fail(ValueError(f"--equilibrium must be 'static' or 'explicit', got "
+                             f"{equilibrium!r}"))
+        if "equilibrium" not in inspect.signature(CASES[name]).parameters:
+            _fail(ValueError(f"--equilibrium: the case {name!r} has no elastic equilibrium "
+                             "to choose"))
+        options["equilibrium"] = equilibrium
     start = time.perf_counter()
     try:
         if json_rows:

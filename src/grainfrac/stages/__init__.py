@@ -29,7 +29,7 @@ def from_scenario(scenario: Scenario, base_dir: Path | None = None) -> list[Stag
 
     def equilibrate(spec):
         return Equilibrate(sigma_x, sigma_y, ratio=spec.unbalanced_ratio,
-                           max_steps=spec.max_steps, sigma_z=sigma_z)
+                           max_steps=spec.max_steps, sigma_z=sigma_z, method=spec.method)
 
     build = {
         "equilibrate": equilibrate,

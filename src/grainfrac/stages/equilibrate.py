@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from grainfrac.loading.boundary import far_field_stress_forces, normal_pressure_forces
+from grainfrac.physics import static_equilibrium
 from grainfrac.stages.world import World
 
 log = logging.getLogger(__name__)
@@ -45,7 +46,12 @@ class Equilibrate:
     rectangle's sides (and ``sigma_z`` on a 3D box's top and bottom) and
     ``wall_pressure`` on the borehole wall (Pa, compressive magnitudes), then step to
     an unbalanced-force ratio below ``ratio`` (or ``max_steps``), bonds held elastic
-    meanwhile. One chunk: :data:`CHECKS_PER_CHUNK` checks of the ratio."""
+    meanwhile. One chunk: :data:`CHECKS_PER_CHUNK` checks of the ratio.
+
+    ``method``: ``"explicit"`` relaxes from the unloaded state by the explicit steps
+    alone; ``"static"`` first solves the equilibrium of the bonded assembly
+    (:func:`grainfrac.physics.static_equilibrium.settle`) and steps only if that
+    leaves the ratio above its target (unbonded fissures that open or slip)."""
 
     sigma_x: float
     sigma_y: float
@@ -53,6 +59,7 @@ class Equilibrate:
     max_steps: int
     wall_pressure: float = 0.0
     sigma_z: float = 0.0
+    method: str = "explicit"
     kind: str = "equilibrate"
     periodic_snapshots: bool = False
     state: EquilibrateState = field(default_factory=EquilibrateState)
@@ -67,10 +74,16 @@ class Equilibrate:
         loads.external += far_field_stress_forces(world.assembly.mesh, self.sigma_x,
                                                   self.sigma_y, self.sigma_z)
         world.solver.allow_failure = False  # until the stage ends (saved in a checkpoint)
+        if self.method == "static":
+            ratio = static_equilibrium.settle(world.solver)
+            self.state.unbalanced_force_ratio = ratio
+            log.info("equilibrate: static solve, unbalanced-force ratio %.3g", ratio)
 
     def advance(self, world: World) -> None:
         st, solver = self.state, world.solver
-        for _ in range(CHECKS_PER_CHUNK):
+        # A static solve may have settled it already.
+        settled = st.unbalanced_force_ratio is not None and st.unbalanced_force_ratio < self.ratio
+        for _ in range(0 if settled else CHECKS_PER_CHUNK):
             if st.steps >= self.max_steps:
                 break
             solver.cycle(CHECK_EVERY)

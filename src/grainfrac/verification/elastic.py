@@ -216,13 +216,14 @@ def sector_band(r, theta, radius: float, k: float, angle_deg: float) -> np.ndarr
 
 def kirsch(sigma_x: float = 2.5e6, sigma_y: float = 5.0e6, seed: int = 0, *,
            zone_size_mm: float = 1.4, ratio: float = 1e-5,
-           max_steps: int = 400_000) -> list[Comparison]:
+           max_steps: int = 400_000, equilibrium: str = "static") -> list[Comparison]:
     """Hoop stress around the borehole under far-field stress vs the Kirsch solution.
 
     Loading: the production path, the :class:`~grainfrac.stages.Equilibrate` stage
     (uniform normal tractions ``sigma_x`` on left/right, ``sigma_y`` on top/bottom,
     compressive Pa; default paper Table 6 case 2, 2.5 / 5 MPa), equilibrated to an
-    unbalanced-force ratio ``ratio``.
+    unbalanced-force ratio ``ratio``, by its static solve then explicit steps
+    (``equilibrium = "static"``) or by the explicit steps alone (``"explicit"``).
 
     Reference (infinite plate, tension positive, far field s_xx = -sigma_x,
     s_yy = -sigma_y, t from the x axis)::
@@ -267,7 +268,8 @@ def kirsch(sigma_x: float = 2.5e6, sigma_y: float = 5.0e6, seed: int = 0, *,
     """
     assembly = homogeneous_slab(seed, zone_size_mm)
     _, a = _borehole(assembly)
-    solver = equilibrated_slab(assembly, Equilibrate(sigma_x, sigma_y, ratio, max_steps))
+    solver = equilibrated_slab(assembly, Equilibrate(sigma_x, sigma_y, ratio, max_steps,
+                                                     method=equilibrium))
     sxx, syy = -sigma_x, -sigma_y
 
     rows: list[Comparison] = []
@@ -305,7 +307,8 @@ def hoop_decay_rows(case: str, r, theta, hoop, weight, radius: float, far_field,
 
 
 def lame(pressure: float = 10e6, seed: int = 0, *, zone_size_mm: float = 1.4,
-         ratio: float = 1e-5, max_steps: int = 400_000) -> list[Comparison]:
+         ratio: float = 1e-5, max_steps: int = 400_000,
+         equilibrium: str = "static") -> list[Comparison]:
     """Borehole wall displacement under internal pressure vs the Lame solution.
 
     Loading: a pressure ``pressure`` (Pa) on the borehole wall (the
@@ -345,7 +348,8 @@ def lame(pressure: float = 10e6, seed: int = 0, *, zone_size_mm: float = 1.4,
     mesh = assembly.mesh
     centre, a = _borehole(assembly)
     solver = equilibrated_slab(assembly, Equilibrate(0.0, 0.0, ratio, max_steps,
-                                                     wall_pressure=pressure))
+                                                     wall_pressure=pressure,
+                                                     method=equilibrium))
 
     nodes = mesh.node_sets["borehole"]
     rel = mesh.node_xy[nodes] - centre
