@@ -21,7 +21,8 @@ The contacts are stepped inside ``mechanics.cycle`` (one kernel with the element
 time still flows into the well): what is left is the host's share of a coupled step,
 the work a GPU run does on the host while the device does the mechanics. With
 ``--in-situ-steps`` capping the equilibration (the 100 mm cube's takes hours on two
-cores) and ``--profile`` printing where that host time goes, it measures the host
+cores; ``--in-situ-method static`` reaches it by a static solve instead) and
+``--profile`` printing where that host time goes, it measures the host
 work per fluid step of the cube's network without a GPU.
 
 ``--first-step SCENARIO`` times instead the first injection step's pressure solve of a
@@ -65,8 +66,8 @@ from grainfrac.units import ML_PER_MIN, MPA
 
 
 def build_solver(seed: int, case: str, dim: int = 2, width_mm: float = 100.0,
-                 thickness_mm: float = 20.0, in_situ_steps: int = 200_000
-                 ) -> HydroMechanicalSolver:
+                 thickness_mm: float = 20.0, in_situ_steps: int = 200_000,
+                 in_situ_method: str = "explicit") -> HydroMechanicalSolver:
     spec = {"seed": seed}
     sides = ("left", "right", "top", "bottom")
     if dim == 3:
@@ -79,7 +80,8 @@ def build_solver(seed: int, case: str, dim: int = 2, width_mm: float = 100.0,
     mechanics = MechanicsSolver(build_mechanical_model(assembly))
     sx, sy, sz = STRESS_CASES[case]
     initialise_in_situ(mechanics, assembly.mesh, sx * MPA, sy * MPA,
-                       sz * MPA if dim == 3 else 0.0, max_steps=in_situ_steps)
+                       sz * MPA if dim == 3 else 0.0, max_steps=in_situ_steps,
+                       method=in_situ_method)
     network = flow.build_flow_network(assembly.mesh, permeable_sides=dict.fromkeys(sides, 0.0),
                                       well=True, wall="sealed")
     return HydroMechanicalSolver(assembly, mechanics, network, flow.FluidProperties())
@@ -177,6 +179,9 @@ def main(argv: list[str] | None = None) -> int:
                         help="time the first pressure solve of this scenario's specimen")
     parser.add_argument("--in-situ-steps", type=int, default=200_000,
                         help="at most this many steps of in-situ equilibration")
+    parser.add_argument("--in-situ-method", choices=("explicit", "static"), default="explicit",
+                        help="in-situ equilibrium by explicit steps alone or a static solve "
+                             "first (the cube's in minutes instead of hours)")
     parser.add_argument("--mechanics-steps", type=int, default=None,
                         help="at most this many explicit steps per coupled step (host share)")
     parser.add_argument("--profile", type=int, default=0, metavar="N",
@@ -191,7 +196,7 @@ def main(argv: list[str] | None = None) -> int:
 
     start = time.perf_counter()
     solver = build_solver(args.seed, args.case, args.dim, args.width_mm, args.thickness_mm,
-                          args.in_situ_steps)
+                          args.in_situ_steps, args.in_situ_method)
     setup = time.perf_counter() - start
     rate = args.rate * ML_PER_MIN
     for _ in range(args.warmup):

@@ -182,3 +182,8 @@ def test_fissures_the_solve_opens_are_settled_by_the_explicit_steps(slab2d, monk
           f"{steps['explicit']}")
     assert len(solved) == 1 and solved[0] > 1e-5 and opened > 0
     assert 0 < steps["static"] < steps["explicit"]
+
+
+def test_an_unknown_method_is_refused_by_name():
+    with pytest.raises(ValueError, match="explicit, static.*'implicit'"):
+        Equilibrate(1e6, 1e6, ratio=1e-5, max_steps=10, method="implicit")

@@ -30,6 +30,9 @@ from grainfrac.physics import kernels
 from grainfrac.physics.elements.common import elasticity_matrix, strain_displacement
 from grainfrac.physics.records import ContactState
 
+# How an equilibrium is reached: dynamic relaxation alone, or this solve first.
+METHODS = ("explicit", "static")
+
 # Degrees of freedom from which the solve is iterative (a 2D default slab has ~8,400).
 ITERATIVE_MIN_DOFS = 60_000
 # Relative residual of the iterative solve: far below the 1e-5 unbalanced-force ratio
@@ -43,6 +46,14 @@ REFINEMENTS = 8
 # Conjugate-gradient iterations of one iterative solve (the 3D Kirsch slab of 214,665
 # degrees of freedom takes about 260).
 MAX_ITERATIONS = 2000
+
+
+def check_method(method: str) -> str:
+    """``method`` if it is one of :data:`METHODS`; a ``ValueError`` naming them if not."""
+    if method not in METHODS:
+        raise ValueError(f"equilibrium method must be one of {', '.join(METHODS)}, "
+                         f"got {method!r}")
+    return method
 
 
 def settle(solver) -> float:

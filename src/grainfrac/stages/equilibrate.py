@@ -64,6 +64,9 @@ class Equilibrate:
     periodic_snapshots: bool = False
     state: EquilibrateState = field(default_factory=EquilibrateState)
 
+    def __post_init__(self) -> None:
+        static_equilibrium.check_method(self.method)
+
     def begin(self, world: World) -> None:
         self.state.start_time = world.solver.time
         loads = world.solver.loads

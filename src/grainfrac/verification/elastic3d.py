@@ -122,6 +122,7 @@ def equilibrate3d(assembly: GrainAssembly, external: np.ndarray, ratio: float,
     ``method``: ``"static"`` solves the equilibrium first
     (:func:`grainfrac.physics.static_equilibrium.settle`) and steps only if that
     leaves the ratio above ``ratio``; ``"explicit"`` steps from the unloaded state."""
+    static_equilibrium.check_method(method)
     solver = MechanicsSolver(build_mechanical_model(assembly))
     solver.loads.external[:] = external
     if fixed is not None:
