@@ -351,7 +351,13 @@ def mesh_grains3d(cx: GrainComplex, zone_size: float | ZoneSizes, rng: np.random
         if len(local_x) > len(bnd):
             points.add(local_x[len(bnd):])
             n_pts += len(local_x) - len(bnd)
-        _check_conforming(ids[tets], [face_tris[f] for f in fl], p)
+        tris = [face_tris[f] for f in fl]
+        try:
+            _check_conforming(ids[tets], tris, p)
+        except GeometryError:
+            # Only where the check fails: every mesh that passed stays as it was.
+            tets = _split_quads_as_faces(tets, np.searchsorted(ids, np.vstack(tris)), local_x)
+            _check_conforming(ids[tets], tris, p)
         piece_tets.append(ids[tets])
     pts = points.array()
     return _assemble(cx, zones, pts, face_point_ids, face_tris, face_point_area, piece_tets,
@@ -539,6 +545,49 @@ def _mend_step(bxyz: np.ndarray, x: np.ndarray, tets: np.ndarray, piece: int, h:
         if worst >= _STEP_TARGET:
             break
     return x, tets
+
+
+def _split_quads_as_faces(tets: np.ndarray, face_tris: np.ndarray, x: np.ndarray
+                          ) -> np.ndarray:
+    """Re-split the quadrilaterals that the tetrahedra cut along the other diagonal than
+    the piece's face triangulation ``face_tris`` does.
+
+    Where a face's four points lie on one circle (a coarse zone on a thin slab: 4 mm
+    zones in an 8 mm slab), either diagonal is Delaunay and Qhull may take the other
+    one. The two tetrahedra on such a quadrilateral then share their apex (the five
+    points lie on one sphere), and the pyramid is split again along the face's own
+    diagonal. Anything else is left for :func:`_check_conforming` to report.
+    """
+    opposite = np.array([0, 1, 2, 3])
+    faces = np.vstack((tets[:, [1, 2, 3]], tets[:, [0, 3, 2]], tets[:, [0, 1, 3]],
+                       tets[:, [0, 2, 1]]))
+    owner = np.tile(np.arange(len(tets)), 4)
+    apex = tets[owner, np.repeat(opposite, len(tets))]
+    key = [tuple(sorted(f)) for f in faces.tolist()]
+    count: dict[tuple, int] = {}
+    for k in key:
+        count[k] = count.get(k, 0) + 1
+    expected = {tuple(sorted(t)) for t in face_tris.tolist()}
+    wrong = [i for i, k in enumerate(key) if count[k] == 1 and k not in expected]
+    surface = {k for k, c in count.items() if c == 1}
+    missing = [k for k in expected if k not in surface]
+    out = tets.copy()
+    for first in range(len(wrong)):
+        for second in range(first + 1, len(wrong)):
+            i, j = wrong[first], wrong[second]
+            quad = set(key[i]) | set(key[j])
+            if len(quad) != 4 or apex[i] != apex[j]:
+                continue
+            given = [m for m in missing if set(m) <= quad]
+            if len(given) != 2:
+                continue
+            for t, tri in zip((owner[i], owner[j]), given, strict=True):
+                cell = np.array([*tri, apex[i]])
+                a, b, c, d = x[cell]
+                if np.dot(np.cross(b - a, c - a), d - a) < 0.0:
+                    cell = cell[[0, 2, 1, 3]]
+                out[t] = cell
+    return out
 
 
 def _check_conforming(tets: np.ndarray, face_tris: list[np.ndarray], piece: int) -> None:
