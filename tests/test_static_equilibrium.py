@@ -187,3 +187,13 @@ def test_fissures_the_solve_opens_are_settled_by_the_explicit_steps(slab2d, monk
 def test_an_unknown_method_is_refused_by_name():
     with pytest.raises(ValueError, match="explicit, static.*'implicit'"):
         Equilibrate(1e6, 1e6, ratio=1e-5, max_steps=10, method="implicit")
+
+
+def test_in_situ_initialisation_takes_the_static_solve(slab2d):
+    from grainfrac.loading.insitu import initialise_in_situ
+
+    solver = MechanicsSolver(build_mechanical_model(slab2d))
+    result = initialise_in_situ(solver, slab2d.mesh, 2.5e6, 5e6, method="static")
+    assert result.converged and result.steps == 0 and solver.allow_failure
+    with pytest.raises(ValueError, match="'relaxed'"):
+        initialise_in_situ(solver, slab2d.mesh, 2.5e6, 5e6, method="relaxed")

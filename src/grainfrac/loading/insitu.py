@@ -10,8 +10,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
-
 from grainfrac.geometry.meshing import GrainMesh
 from grainfrac.loading.boundary import far_field_stress_forces
 from grainfrac.physics import static_equilibrium
@@ -55,14 +53,12 @@ def initialise_in_situ(
     the ratio above ``ratio``. Returns the steps taken and the final unbalanced-force
     ratio.
     """
-    static_equilibrium.check_method(method)
+    static_equilibrium.check_method(method)  # before the loads change
     solver.loads.external += far_field_stress_forces(mesh, sigma_x, sigma_y, sigma_z)
     start = solver.step_count
     solver.allow_failure = False
     try:
-        achieved = static_equilibrium.settle(solver) if method == "static" else np.inf
-        if not achieved < ratio:
-            achieved = solver.equilibrate(ratio=ratio, max_steps=max_steps)
+        achieved = static_equilibrium.equilibrate(solver, ratio, max_steps, method)
     finally:
         solver.allow_failure = True
     return InSituResult(solver.step_count - start, achieved, achieved < ratio)

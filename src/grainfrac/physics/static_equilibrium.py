@@ -56,6 +56,18 @@ def check_method(method: str) -> str:
     return method
 
 
+def equilibrate(solver, ratio: float, max_steps: int, method: str = "static") -> float:
+    """Bring ``solver`` under its loads to an unbalanced-force ratio below ``ratio``: by
+    :func:`settle` first (``method = "static"``), then by explicit steps
+    (:meth:`MechanicsSolver.equilibrate`, at most ``max_steps``) while it is above.
+    Returns the ratio reached."""
+    check_method(method)
+    achieved = settle(solver) if method == "static" else np.inf
+    if not achieved < ratio:
+        achieved = solver.equilibrate(ratio=ratio, max_steps=max_steps)
+    return achieved
+
+
 def settle(solver) -> float:
     """Move ``solver`` to the static equilibrium of its loads with the bonds held
     elastic; returns the unbalanced-force ratio reached (0 motion left).

@@ -128,9 +128,7 @@ def equilibrate3d(assembly: GrainAssembly, external: np.ndarray, ratio: float,
     if fixed is not None:
         solver.loads.fixed[:] = fixed
     solver.allow_failure = False
-    achieved = static_equilibrium.settle(solver) if method == "static" else np.inf
-    if not achieved < ratio:
-        achieved = solver.equilibrate(ratio=ratio, max_steps=max_steps)
+    achieved = static_equilibrium.equilibrate(solver, ratio, max_steps, method)
     solver.allow_failure = True
     if not achieved < ratio:
         raise VerificationError(
