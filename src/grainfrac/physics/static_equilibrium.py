@@ -89,7 +89,9 @@ def settle(solver) -> float:
     trial = ContactState(*(np.array(a) for a in solver.contact_state()))
     residual = (loads.external + internal_forces(solver, trial)).ravel()
     free = ~loads.fixed.ravel()
-    k = stiffness_matrix(m)[free][:, free]
+    k = stiffness_matrix(m)
+    if not free.all():  # slicing copies the matrix twice
+        k = k[free][:, free]
     du = np.zeros(n * d)
     du[free] = _solve(k, residual[free], rigid_motions(m.x, d)[free])
     du = du.reshape(n, d)
@@ -119,15 +121,20 @@ def stiffness_matrix(model) -> sp.csr_matrix:
     """The assembly's stiffness ``(n d, n d)`` (N/m): elements and contact springs,
     degrees of freedom node by node."""
     n, d = model.n_nodes, model.dimension
-    k_nodes = d + 1
+    per_cell = (d + 1) * d
+    # 32-bit indices: the 100 mm cube's 138 million element entries are its peak memory.
+    index = np.int32 if n * d < 2**31 else np.int64
     cell_dof = (d * model.cells[:, :, None] + np.arange(d)).reshape(len(model.cells), -1)
+    cell_dof = cell_dof.astype(index)
     # B^T (D B) as two batched products: the three-operand einsum of
     # ``element_stiffness`` took 13 s on a 3D Kirsch slab.
     b = strain_displacement(model.grad)
     db = np.matmul(elasticity_matrix(model.lam, model.mu, d), b)
-    ke = np.matmul(b.transpose(0, 2, 1), db) * model.cell_measure[:, None, None]
-    rows = [np.repeat(cell_dof, k_nodes * d, axis=1).ravel()]
-    cols = [np.tile(cell_dof, (1, k_nodes * d)).ravel()]
+    ke = np.matmul(b.transpose(0, 2, 1), db)
+    del b, db
+    ke *= model.cell_measure[:, None, None]
+    rows = [np.repeat(cell_dof, per_cell, axis=1).ravel()]
+    cols = [np.tile(cell_dof, (1, per_cell)).ravel()]
     vals = [ke.ravel()]
     frame = model.contact_frame  # (c, d, d): normal, then tangents
     spring = np.concatenate(([model.normal_stiffness], [model.shear_stiffness] * (d - 1)))
@@ -136,8 +143,8 @@ def stiffness_matrix(model) -> sp.csr_matrix:
     for first, second, sign in ((a, a, 1.0), (b, b, 1.0), (a, b, -1.0), (b, a, -1.0)):
         r = d * first[:, None, None] + np.arange(d)[None, :, None]
         c = d * second[:, None, None] + np.arange(d)[None, None, :]
-        rows.append(np.broadcast_to(r, kc.shape).ravel())
-        cols.append(np.broadcast_to(c, kc.shape).ravel())
+        rows.append(np.broadcast_to(r, kc.shape).ravel().astype(index))
+        cols.append(np.broadcast_to(c, kc.shape).ravel().astype(index))
         vals.append(sign * kc.ravel())
     return sp.coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
                          shape=(n * d, n * d)).tocsr()
