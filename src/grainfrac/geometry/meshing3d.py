@@ -26,6 +26,7 @@ sub-contact per face (node of the lower grain, node of the higher grain).
 from __future__ import annotations
 
 import math
+from collections import Counter
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import ClassVar
@@ -558,15 +559,11 @@ def _split_quads_as_faces(tets: np.ndarray, face_tris: np.ndarray, x: np.ndarray
     points lie on one sphere), and the pyramid is split again along the face's own
     diagonal. Anything else is left for :func:`_check_conforming` to report.
     """
-    opposite = np.array([0, 1, 2, 3])
-    faces = np.vstack((tets[:, [1, 2, 3]], tets[:, [0, 3, 2]], tets[:, [0, 1, 3]],
-                       tets[:, [0, 2, 1]]))
+    faces = _tet_faces(tets)
     owner = np.tile(np.arange(len(tets)), 4)
-    apex = tets[owner, np.repeat(opposite, len(tets))]
+    apex = tets[owner, np.repeat(np.arange(4), len(tets))]  # face k is opposite corner k
     key = [tuple(sorted(f)) for f in faces.tolist()]
-    count: dict[tuple, int] = {}
-    for k in key:
-        count[k] = count.get(k, 0) + 1
+    count = Counter(key)
     expected = {tuple(sorted(t)) for t in face_tris.tolist()}
     wrong = [i for i, k in enumerate(key) if count[k] == 1 and k not in expected]
     surface = {k for k, c in count.items() if c == 1}
@@ -590,10 +587,16 @@ def _split_quads_as_faces(tets: np.ndarray, face_tris: np.ndarray, x: np.ndarray
     return out
 
 
+def _tet_faces(tets: np.ndarray) -> np.ndarray:
+    """The four faces of every tetrahedron ``(4 m, 3)``, outward for a positive one:
+    block ``k`` holds each one's face opposite its corner ``k``."""
+    return np.vstack((tets[:, [1, 2, 3]], tets[:, [0, 3, 2]], tets[:, [0, 1, 3]],
+                      tets[:, [0, 2, 1]]))
+
+
 def _check_conforming(tets: np.ndarray, face_tris: list[np.ndarray], piece: int) -> None:
     """Every tet face on the piece's surface must be a triangle of one of its faces."""
-    faces = np.vstack((tets[:, [1, 2, 3]], tets[:, [0, 3, 2]], tets[:, [0, 1, 3]],
-                       tets[:, [0, 2, 1]]))
+    faces = _tet_faces(tets)
     tris = np.vstack(face_tris)
     # Triangles as one int64 key each, over the piece's own point numbering (np.unique
     # over rows cost 3 s of the 100 mm cube's build).
